@@ -36,6 +36,9 @@ TANGENTS ?= host
 # the lanes' datapath in make sim: 1 one datapath for the contact and friction passes (every design's default with
 # DATAPATH=rtl), 0 a contact and a friction pipe per lane (DATAPATH=xls's default: XLS compiles the two pipes)
 SHARED_DATAPATH ?= $(if $(filter xls,$(DATAPATH)),0,1)
+# the pipes' adders in make sim: 0 in LUTs and carry chains, 1 every fp_add in its DSP48E2 form (ADD_SHIFT_DSP: the same
+# results and cycles; the fit verdict counts the form built and names the one it would pick; not with DATAPATH=xls)
+ADD_DSP ?= 0
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
@@ -66,8 +69,9 @@ help:
 	@echo "                   DATAPATH=rtl|xls: the pipes hand-scheduled, or compiled by Google XLS (fp32, fp16)"
 	@echo "                   the design: SCHEDULE=hazard|sweep|... RECORD_WINDOW=0|8192 LANES=1|2|4 FETCH_PASSES=0"
 	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip SHARED_DATAPATH=1|0"
+	@echo "                   ADD_DSP=0|1: the adders in LUTs, or in DSP48E2s (the fit's report names the form it picks)"
 	@echo "                   the fitting designs: SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records"
-	@echo "                   BODY_BITS=256 (fp32), plus FORMAT=fp16 LANES=2"
+	@echo "                   BODY_BITS=256 (fp32), plus FORMAT=fp16 LANES=2 ADD_DSP=1 (fits at the band's pessimistic end)"
 	@echo "  make sweep       kernel time against error over SWEEP_ITERS x FORMATS (IMPULSE_STORES=onchip,records, MODE=model)"
 	@echo "  make peers       the same frame on the engines a user could pick instead (Warp, MuJoCo), beside our designs"
 	@echo "  make csim        the HLS C++ kernel (hls_export/) in C simulation, bit for bit against the golden model"
@@ -126,7 +130,8 @@ sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
-		--tangents $(TANGENTS) --compile-profile $(COMPILE) --shared-datapath $(SHARED_DATAPATH) --datapath $(DATAPATH)
+		--tangents $(TANGENTS) --compile-profile $(COMPILE) --shared-datapath $(SHARED_DATAPATH) --datapath $(DATAPATH) \
+		--add-dsp $(ADD_DSP)
 
 PEER_RUNS ?= 7
 # each MuJoCo model runs in a child process within these (the thesis frame needs MUJOCO_BUDGET=2400 MUJOCO_MEMORY_GB=16)

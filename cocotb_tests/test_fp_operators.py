@@ -6,7 +6,9 @@ random idle cycles) is compiled once with Verilator; ``sim/drive/fp_operator_vec
 golden results, and every result of every operator must match ``encode(golden_op(decode(a), decode(b)))`` bit
 for bit: a + b, a - b, a * b, a / b, sqrt(a), minimum, maximum, the compare flags lt / eq / unordered, and the
 event flags (overflow, underflow, invalid) of add, sub, mul, div and sqrt (every flag that can occur must occur
-in the vectors). ``SEED=<int>`` overrides the random seed (printed by each test).
+in the vectors). Each format is run twice: with fp_add's fabric form and with its DSP48E2 form (``SHIFT_DSP = 1``:
+the alignment and normalization shifts as multiplications, the add in the DSP's post-adder), which must give the
+same bits. ``SEED=<int>`` overrides the random seed (printed by each test).
 """
 
 from __future__ import annotations
@@ -34,13 +36,16 @@ class Harness:
     fmt_name: str
     exe: Path
     build_s: float
+    add_dsp: bool = False
 
 
-@pytest.fixture(scope="module", params=["fp32", "fp16", "bf16"])
+@pytest.fixture(scope="module", params=[(f, dsp) for f in ("fp32", "fp16", "bf16") for dsp in (False, True)],
+                ids=lambda p: p[0] + ("-add_dsp" if p[1] else ""))
 def harness(request: pytest.FixtureRequest) -> Harness:
+    fmt_name, add_dsp = request.param
     t0 = time.monotonic()
-    exe = build_fp_operator_harness(request.param)
-    return Harness(request.param, exe, time.monotonic() - t0)
+    exe = build_fp_operator_harness(fmt_name, add_dsp=add_dsp)
+    return Harness(fmt_name, exe, time.monotonic() - t0, add_dsp)
 
 
 def run_harness(h: Harness, vec: np.ndarray, tmp: Path, seed: int) -> tuple[np.ndarray, str]:
@@ -53,7 +58,9 @@ def run_harness(h: Harness, vec: np.ndarray, tmp: Path, seed: int) -> tuple[np.n
 def test_fp_operators_bit_exact(harness: Harness, tmp_path: Path) -> None:
     fmt = FORMATS[harness.fmt_name]
     seed = seed_for(harness.fmt_name)
-    print(f"\n[{harness.fmt_name}] SEED={seed} (override the base with SEED=...); build {harness.build_s:.1f} s")
+    form = "DSP48E2 adders" if harness.add_dsp else "fabric adders"
+    print(f"\n[{harness.fmt_name}, {form}] SEED={seed} (override the base with SEED=...); "
+          f"build {harness.build_s:.1f} s")
     t0 = time.monotonic()
     vec, counts = make_vectors(harness.fmt_name, seed)
     t1 = time.monotonic()

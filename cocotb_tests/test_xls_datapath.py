@@ -138,7 +138,7 @@ def test_xls_builds_refused_with_one_line() -> None:
     cases = {"FORMAT=bf16": dict(fmt=BF16), "IINV_W = 1 or 6": dict(fmt=FP16, inertia_words=6),
              "MU_W = 1": dict(fmt=FP32, friction_words=1), "TANGENTS=chip": dict(fmt=FP32, tangents_on_chip=True),
              "SOFT_CONTACT": dict(fmt=FP32, soft_contact=True), "sign bug": dict(fmt=FP32, friction_sign_bug=True),
-             "SHARED_DATAPATH=1": dict(fmt=FP32, shared_datapath=True)}
+             "SHARED_DATAPATH=1": dict(fmt=FP32, shared_datapath=True), "ADD_DSP=1": dict(fmt=FP32, add_dsp=True)}
     assert len(cases) == len(XLS_UNCOVERED) + 1  # each row of the table, and a format
     for what, kw in cases.items():
         with pytest.raises(ValueError) as info:

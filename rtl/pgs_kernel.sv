@@ -50,6 +50,8 @@ module pgs_kernel #(
     parameter bit SOFT_CONTACT   = 1'b0,  // 1 (IINV_W = 3): the soft contact pipe (options bit 1, keep_dyn, keep_static)
     parameter int DELAY_BLOCK_MIN_DEPTH = 0,  // the pipes' delay lines at least this deep in block RAM (0: LUT RAM)
     parameter bit SHARED_DATAPATH = 1'b1, // 1: one datapath per lane for contact and friction; 0: a pipe of each kind
+    parameter bit ADD_SHIFT_DSP  = 1'b0,  // 1: every fp_add of the pipes in its DSP48E2 form (fp_add's SHIFT_DSP, the
+                                          // same results and latency); 0: in LUTs and carry chains
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
@@ -130,7 +132,8 @@ module pgs_kernel #(
         .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
         .LANES(LANES), .IINV_W(IINV_W), .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS), .MU_W(MU_W),
         .BODY_BANKS(BODY_BANKS), .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP), .SOFT_CONTACT(SOFT_CONTACT),
-        .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .SHARED_DATAPATH(SHARED_DATAPATH)
+        .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .SHARED_DATAPATH(SHARED_DATAPATH),
+        .ADD_SHIFT_DSP(ADD_SHIFT_DSP)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),

@@ -32,6 +32,7 @@ module pgs_lane_datapath #(
     parameter bit SHARED_DATAPATH  = 1'b1,
     parameter bit ALIGN            = 1'b0,   // two pipes: the friction results wait for the contact pipe's latency
     parameter int DELAY_BLOCK_MIN_DEPTH = 0,
+    parameter bit ADD_SHIFT_DSP    = 1'b0,   // every fp_add of the pipes in its DSP48E2 form (fp_add's SHIFT_DSP)
     localparam int W               = 1 + EXP_BITS + MAN_BITS,
     localparam int REC_WORDS       = 23,     // the words of in_rec (a contact record's)
     localparam int EV_W            = 16
@@ -96,12 +97,12 @@ module pgs_lane_datapath #(
         // one module per option set (the same ports but in_soft, the same latency)
         `define PGS_SHARED_PIPE(name) \
             name #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(TAG_W), \
-                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_pipe ( \
+                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_pipe ( \
                 .clk, .rst, .in_valid, .in_kind, .in_tag, .in_data(s_in), .in_spin_damp, .in_count(1'b1), \
                 .out_valid, .out_kind, .out_tag, .out_data(s_out), .ev_overflow, .ev_underflow, .ev_invalid);
         `define PGS_SHARED_SOFT_PIPE(name) \
             name #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(TAG_W), \
-                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_pipe ( \
+                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_pipe ( \
                 .clk, .rst, .in_valid, .in_kind, .in_tag, .in_data(s_in), .in_spin_damp, .in_soft, \
                 .in_count(1'b1), .out_valid, .out_kind, .out_tag, .out_data(s_out), .ev_overflow, .ev_underflow, \
                 .ev_invalid);
@@ -143,8 +144,8 @@ module pgs_lane_datapath #(
         logic [16*W-1:0]   c_out;
         logic [14*W-1:0]   f_out, f_pipe;
         logic [EV_W-1:0]   c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv;
-        // the contact pipe's inputs: its 23 record words, lam[4], the bodies' words, the soft keep factors; the friction
-        // pipe's: its F_PIPE record words, lam[4], lamT[2], the bodies' words, then (MU_W = 1) the coefficient
+        // the contact pipe's inputs: its 23 record words, lam[4], the bodies' words, the soft keep factors; the
+        // friction pipe's: its F_PIPE record words, lam[4], lamT[2], the bodies' words, then (MU_W = 1) the coefficient
         logic [(27 + BODY_WORDS + SOFT_WORDS)*W-1:0] c_in;
         logic [(F_PIPE + 6 + BODY_WORDS + MU_W)*W-1:0] f_in;
         if (SOFT_CONTACT) begin : g_keep
@@ -161,12 +162,12 @@ module pgs_lane_datapath #(
         wire f_in_valid = in_valid && in_kind;
         `define PGS_PIPE(name, inst, valid, data, vo, to, o, e1, e2, e3) \
             name #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(TAG_W), \
-                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) inst ( \
+                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) inst ( \
                 .clk, .rst, .in_valid(valid), .in_tag, .in_data(data), .in_count(1'b1), .out_valid(vo), \
                 .out_tag(to), .out_data(o), .ev_overflow(e1), .ev_underflow(e2), .ev_invalid(e3));
         `define PGS_FRICTION_PIPE(name) \
             name #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(TAG_W), \
-                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction ( \
+                   .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_friction ( \
                 .clk, .rst, .in_valid(f_in_valid), .in_tag, .in_data(f_in), .in_spin_damp, .in_count(1'b1), \
                 .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe), .ev_overflow(f_ev_ovf), \
                 .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
@@ -179,7 +180,7 @@ module pgs_lane_datapath #(
         end else if (SOFT_CONTACT) begin : g_soft
             // the soft contact pipe (the same latency; keep_dyn, keep_static its last words)
             pgs_contact_pipe_soft #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(TAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_contact (
                 .clk, .rst, .in_valid(c_in_valid), .in_tag, .in_data(c_in), .in_soft, .in_count(1'b1),
                 .out_valid(c_valid), .out_tag(c_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));

@@ -17,6 +17,7 @@ module pgs_seq_integrate #(
     parameter int OUT_FIFO_DEPTH = 64,
     parameter int IINV_W         = 3,
     parameter int DELAY_BLOCK_MIN_DEPTH = 0,
+    parameter bit ADD_SHIFT_DSP = 1'b0,   // the integrate pipe's fp_add instances in their DSP48E2 form
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int BREC_W        = (14 + IINV_W) * W,
     localparam int EV_W          = pgs_seq_pkg::EV_W
@@ -64,7 +65,7 @@ module pgs_seq_integrate #(
     logic [ITAG_W-1:0] io_tag;
     logic [OREC_W-1:0] io_data;
     pgs_integrate_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(ITAG_W),
-                         .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_integrate (
+                         .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_integrate (
         .clk, .rst, .in_valid(i1_valid), .in_tag({i1_static, rd_rec[0 +: OREC_W]}), .in_data(i_in),
         .in_count(!i1_static), .out_valid(io_valid), .out_tag(io_tag), .out_data(io_data), .ev_overflow,
         .ev_underflow, .ev_invalid);

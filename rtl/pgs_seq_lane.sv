@@ -27,6 +27,7 @@ module pgs_seq_lane #(
     parameter bit SOFT_CONTACT     = 1'b0,
     parameter bit SHARED_DATAPATH  = 1'b1,
     parameter int DELAY_BLOCK_MIN_DEPTH = 0,
+    parameter bit ADD_SHIFT_DSP = 1'b0,   // the datapath's fp_add instances in their DSP48E2 form
     localparam int W               = 1 + EXP_BITS + MAN_BITS,
     localparam int IDX_W           = $clog2(MAX_BODIES),
     localparam int SLOT_W          = $clog2(MAX_MANIFOLDS),
@@ -164,7 +165,7 @@ module pgs_seq_lane #(
     pgs_lane_datapath #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W), .IINV_W(IINV_W), .MU_W(MU_W),
                         .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP), .SOFT_CONTACT(SOFT_CONTACT),
                         .SHARED_DATAPATH(SHARED_DATAPATH), .ALIGN(WINDOW > 0),
-                        .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_datapath (
+                        .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_datapath (
         .clk, .rst, .in_valid(s1_valid), .in_kind(s1_kind), .in_tag(s1_tag), .in_rec(s1_words[0 +: 23*W]),
         .in_lam(rd_lam), .in_lamT(rd_lamT), .in_xa(ra[0 +: 3*W]), .in_xb(rb[0 +: 3*W]), .in_vwa(ra[7*W +: 6*W]),
         .in_vwb(rb[7*W +: 6*W]), .in_ma(m_a), .in_mb(m_b), .in_ia(i_a), .in_ib(i_b), .in_spin_damp(s1_sd),

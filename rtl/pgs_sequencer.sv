@@ -93,6 +93,7 @@ module pgs_sequencer #(
     parameter bit SOFT_CONTACT   = 1'b0,   // 1 (IINV_W = 3): the soft contact pipe, lam * keep before the add
     parameter int DELAY_BLOCK_MIN_DEPTH = 0, // the pipes' delay lines at least this deep in block RAM (0: LUT RAM)
     parameter bit SHARED_DATAPATH = 1'b1,  // 1: one datapath per lane for both passes; 0: a contact and a friction pipe
+    parameter bit ADD_SHIFT_DSP  = 1'b0,   // 1: every fp_add of the pipes in its DSP48E2 form; 0: in the fabric
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (LANES * 4 * W + 7) / 8 * 8
@@ -305,7 +306,7 @@ module pgs_sequencer #(
                        .MAX_MANIFOLDS(MAX_MANIFOLDS), .WINDOW(WINDOW), .LANES(LANES), .IINV_W(IINV_W),
                        .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS), .MU_W(MU_W), .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP),
                        .SOFT_CONTACT(SOFT_CONTACT), .SHARED_DATAPATH(SHARED_DATAPATH),
-                       .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_lane (
+                       .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_lane (
             .clk, .rst, .issue(l_issue[l]), .kind(rkind), .s1_kind, .iter(i_iter), .slot(i_slot),
             .lslot(lslot[SLOT_W-1:0]), .la(la[l*IDX_W +: IDX_W]), .lb(lb[l*IDX_W +: IDX_W]), .dyn_a(dyn[2*l]),
             .dyn_b(dyn[2*l+1]), .sd(l_sd[l]), .fa(l_fa[l]), .fb(l_fb[l]), .lin(l_lin[l]),
@@ -334,7 +335,7 @@ module pgs_sequencer #(
     logic [EV_W-1:0] i_ev_ovf, i_ev_unf, i_ev_inv;
     pgs_seq_integrate #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .BODY_OUT_W(BODY_OUT_W),
                         .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .IINV_W(IINV_W),
-                        .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_integrate (
+                        .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH), .ADD_SHIFT_DSP(ADD_SHIFT_DSP)) u_integrate (
         .clk, .rst, .init, .active(phase == S_INTEG), .nb, .dt(r_dt), .damping(r_damp), .gx(r_gx), .gy(r_gy),
         .gz(r_gz), .rd_idx(int_idx), .rd_rec(rd_data[0 +: BREC_W]), .rd_bad(rd0_bad), .m_body_tdata, .m_body_tvalid,
         .m_body_tready, .m_body_tlast, .done(integ_done), .ev_overflow(i_ev_ovf), .ev_underflow(i_ev_unf),

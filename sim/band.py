@@ -128,7 +128,7 @@ def budget_fit(b: ob.Budget, lanes: int = 1) -> eb.BandVerdict | rm.NoEstimate:
     """The verdict with band of the window kernel a budget row describes (its ring and impulse placement)."""
     cfg = rm.window_config(b.fmt, b.num_bodies, b.num_manifolds, b.trailing * b.band + 2, lanes,
                            b.impulses_resident)
-    return eb.band_or_reason(cfg, b.platform)
+    return eb.band_or_reason(cfg, b.platform, choose_adders=True)  # a study: the adders the fit picks
 
 
 def floor_rows(row: dict[str, Any], platforms: Sequence[Platform], windows: dict[tuple[str, str], int],
@@ -155,7 +155,8 @@ def floor_fit(fl: ob.Floors, bud: ob.Budget | None, p: Platform, f: NumberFormat
     if bud is None:  # every pass streams its records: today's one-lane streaming kernel
         if fl.lanes > 1:
             return "- (lanes need the window kernel)"
-        return "streaming kernel: " + eb.short_band(eb.band_or_reason(rm.KernelConfig(f, bodies, manifolds), p))
+        return "streaming kernel: " + eb.short_band(eb.band_or_reason(rm.KernelConfig(f, bodies, manifolds), p,
+                                                                     choose_adders=True))
     return (f"{bud.total_bytes / (1 << 20):.2f} MiB {'within' if bud.fits else 'beyond'} the data bytes; kernel: "
             + eb.short_band(budget_fit(bud, fl.lanes)))
 

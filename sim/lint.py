@@ -9,7 +9,7 @@ binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a 
 impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together); one
 with ``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHIP`` also with the tangent basis derived
 on chip; one with ``SOFT_CONTACT`` also with the soft contact pipe; one with ``SHARED_DATAPATH`` also with two pipes per
-lane. A module that its parent instantiates unconditionally with every one of its parameters passed through
+lane; one with ``ADD_SHIFT_DSP`` also with the adders' DSP48E2 form. A module that its parent instantiates unconditionally with every one of its parameters passed through
 (``ELABORATED_BY_PARENT``: the sequencer inside the kernel top, the sequencer's phase modules inside it, a lane's datapath
 inside the lane) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set.
 The XLS datapath (``rtl/generated/xls/``, ``rtl/gen/xls_flow.py``) is linted too: each of its pipe modules as a top in
@@ -127,6 +127,15 @@ DATAPATH_PARAM_SETS: dict[str, dict[str, int]] = {
     "two-pipes-window-fp16": {"SHARED_DATAPATH": 0, "WINDOW": 1024, **format_params(FP16)},
 }
 
+# The adders' DSP48E2 form (fp_add's SHIFT_DSP): modules with an ADD_SHIFT_DSP parameter (the generated pipes, the
+# sequencer, the kernel) are also linted with it, and the kernel also with two pipes per lane on the window kernel in
+# fp16.
+ADDER_PARAM_SETS: dict[str, dict[str, int]] = {
+    "dsp-adders": {"ADD_SHIFT_DSP": 1},
+    "dsp-adders-two-pipes-window-fp16": {"ADD_SHIFT_DSP": 1, "SHARED_DATAPATH": 0, "WINDOW": 1024,
+                                         **format_params(FP16)},
+}
+
 # Modules linted as tops with their default parameters only, because the parent named here instantiates them
 # outside any generate block and passes every parameter the sets vary through (``.P(P)``; checked by
 # :func:`forwarded_params`), so each of the parent's parameter-set runs elaborates them with that set.
@@ -170,7 +179,8 @@ def forwarded_params(parent_file: Path, child: str) -> set[str]:
 def param_sets() -> dict[str, dict[str, int]]:
     """Every extra parameter set, by label."""
     return (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | IMPULSE_PARAM_SETS | FRICTION_PARAM_SETS
-            | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS | DELAY_PARAM_SETS | DATAPATH_PARAM_SETS)
+            | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS | DELAY_PARAM_SETS | DATAPATH_PARAM_SETS
+            | ADDER_PARAM_SETS)
 
 
 def runs_for(module_file: Path) -> list[LintRun]:

@@ -17,7 +17,8 @@ from sim.compile.verilator_build import REPO_ROOT
 from sim.fit.resource_model import FIGURES_FILE, VENDOR_OPERATORS, rtl_latency
 from sim.fit.timing_estimate import TIMING_FILE
 from sim.fit.yosys_figures import (BUILD, CHECK_SLOTS, DELAY_CHECKS, IMPULSE_CHECK, OPERATOR_UNITS, UNITS, ZCU102,
-                                   ResourcePoint, delay_check_line, memory_resources, prepare_sources, report,
+                                   ResourcePoint, delay_check_line, memory_resources, operator_name, prepare_sources,
+                                   report,
                                    sum_against_whole, timing_lines, unit_result, write_figures, write_timing)
 from sim.parallel.executor import parse_executor, run_points
 
@@ -57,9 +58,10 @@ def main(argv: list[str] | None = None) -> int:
         print("|---|---|---|---|---|---|---|")
         for r in done:
             if r.unit.name.startswith("op_"):
-                print(f"| {r.fmt.name} | {r.unit.top} ({rtl_latency(r.unit.top, r.fmt)}) | Yosys | "
+                name = operator_name(r.unit)
+                print(f"| {r.fmt.name} | {name} ({rtl_latency(r.unit.top, r.fmt)}) | Yosys | "
                       f"{r.resources.lut:,.0f} | {r.resources.ff:,.0f} | {r.resources.dsp:,.0f} | {r.seconds:.0f} |")
-                for v in VENDOR_OPERATORS.get((r.unit.top, r.fmt.name), ()):
+                for v in VENDOR_OPERATORS.get((name, r.fmt.name), ()):
                     print(f"| {r.fmt.name} | {v.label} ({v.latency}) | {v.source} | {v.resources.lut:,.0f} | "
                           f"{v.resources.ff:,.0f} | {v.resources.dsp:,.0f} | - |")
         print()

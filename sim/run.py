@@ -244,7 +244,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
                               preset.describe(), at_estimated_clock(model_section(job, preset, body_bits=args.body_bits)[0],
                                                                     timing, preset.clock_hz),
-                              fit=kernel_fit(job, args.dma, args.body_bits),
+                              fit=kernel_fit(job, args.dma, args.body_bits, advise_adders=args.datapath == "rtl"),
                               band=kernel_band(job, args.dma, args.body_bits),
                               timing=timing,
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
@@ -295,7 +295,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
             f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]},
             clock_note(timing, preset.clock_hz)),
         timer.seconds)
-    result.fit = kernel_fit(job, args.dma, args.body_bits)
+    result.fit = kernel_fit(job, args.dma, args.body_bits, advise_adders=args.datapath == "rtl")
     result.band = kernel_band(job, args.dma, args.body_bits)
     result.timing = timing
     if res is not None:

@@ -50,6 +50,9 @@ class KernelJob:
     # the kernel's lanes: one datapath for both passes (SHARED_DATAPATH = 1, every configuration's default: the area
     # of one datapath at the cycles of two) or a contact and a friction pipe each (0)
     shared_datapath: bool = True
+    # every fp_add of the pipes in its DSP48E2 form (ADD_SHIFT_DSP = 1: the same results and cycles, another design's
+    # resources), else in LUTs and carry chains (0, the default)
+    add_dsp: bool = False
 
     def __post_init__(self) -> None:
         if self.initial is None:
@@ -96,6 +99,10 @@ class KernelJob:
     def with_datapath(self, shared: bool) -> "KernelJob":
         """This step on lanes of one shared datapath (``shared``) or of a contact and a friction pipe each."""
         return dataclasses.replace(self, shared_datapath=shared)
+
+    def with_adders(self, dsp: bool) -> "KernelJob":
+        """This step on pipes whose adders take the DSP48E2 form (``dsp``) or the fabric's."""
+        return dataclasses.replace(self, add_dsp=dsp)
 
     def impulses_travelling(self, initial: Impulses | None = None) -> "KernelJob":
         """This step on the kernel whose impulses travel with the records, starting from ``initial`` (per manifold,

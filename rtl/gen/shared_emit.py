@@ -18,7 +18,8 @@ from models.formats.number_format import KERNEL_FORMATS
 from rtl.gen.dataflow import FLOAT
 from rtl.gen.operator_timing import Time
 from rtl.gen.shared_datapath import CONTACT, FRICTION, KIND_NAMES, Comb, Operator, Ref, SharedDatapath, Source, _const_key
-from rtl.gen.sv_emit import HEADER, _FLAGGED, _sv_diff, _wrap, comb_assign, expr_text, ready_cycles
+from rtl.gen.sv_emit import (ADD_SHIFT_DSP_PARAM, HEADER, _FLAGGED, _sv_diff, _wrap, comb_assign, expr_text,
+                             operator_params, ready_cycles)
 
 _VALID = {frozenset({CONTACT}): "valid_c_q", frozenset({FRICTION}): "valid_f_q",
           frozenset({CONTACT, FRICTION}): "valid_q"}
@@ -119,7 +120,7 @@ class _Emitter:
                 else:
                     conn += f", .sub({'' if subs[FRICTION] else '!'}kind_q[{op.issue.sv()}])"
             L += [f"    logic [W-1:0] {y.name};", f"    logic [2:0] fl_{op.name};",
-                  f"    {op.module} #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_{op.name} (",
+                  f"    {op.module} {operator_params(op.module)} u_{op.name} (",
                   f"        .clk(clk), .rst(rst), .in_valid({valid}), {conn},",
                   f"        .out_valid(op_valid_nc[{k_op}]), .y({y.name}), .flags(fl_{op.name})", "    );"]
             assert ev_index is not None
@@ -215,6 +216,7 @@ def emit_shared_sv(dp: SharedDatapath) -> str:
           "    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in",
           "    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)",
           "    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,",
+          *ADD_SHIFT_DSP_PARAM,
           "    localparam int W        = 1 + EXP_BITS + MAN_BITS,",
           f"    localparam int N_IN     = {len(lay.inputs)},",
           f"    localparam int N_OUT    = {len(lay.outputs)},",

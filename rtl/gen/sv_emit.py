@@ -19,6 +19,17 @@ from rtl.gen.operator_timing import Time
 from rtl.gen.operator_schedule import schedule
 
 _FLAGGED = ("fp_add", "fp_mul", "fp_div", "fp_sqrt")  # operators with event flags
+# the pipes' adder form, passed to every fp_add instance's SHIFT_DSP (the kernel's ADD_SHIFT_DSP)
+ADD_SHIFT_DSP_PARAM = [
+    "    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the",
+    "    // fabric; the same results, flags and latency either way",
+    "    parameter  bit ADD_SHIFT_DSP = 1'b0,",
+]
+
+
+def operator_params(mod: str) -> str:
+    """The parameter list of an instance of the flagged operator ``mod``: fp_add takes the pipe's adder form."""
+    return "#(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)" + (", .SHIFT_DSP(ADD_SHIFT_DSP))" if mod == "fp_add" else ")")
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
 
 
@@ -146,6 +157,7 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
           "    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in",
           "    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)",
           "    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,",
+          *ADD_SHIFT_DSP_PARAM,
           "    localparam int W        = 1 + EXP_BITS + MAN_BITS,",
           f"    localparam int N_IN     = {n_in},",
           f"    localparam int N_OUT    = {n_out},",
@@ -297,7 +309,7 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             operands = f".a({ops[0]})" + (f", .b({ops[1]})" if mod != "fp_sqrt" else "")
             extra = f", .sub(1'b{1 if v.op == 'sub' else 0})" if mod == "fp_add" else ""
             L.append(f"    logic [2:0] fl_{v.name};")
-            L.append(f"    {mod} #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_{v.name} (")
+            L.append(f"    {mod} {operator_params(mod)} u_{v.name} (")
             L.append(f"        .clk(clk), .rst(rst), .in_valid({issue_valid(v)}), {operands}{extra},")
             L.append(f"        .out_valid(op_valid_nc[{k_op}]), .y({v.name}), .flags(fl_{v.name})")
             L.append("    );")

@@ -136,6 +136,8 @@ def emit_wrapper(split: PipeSplit, formats: list[NumberFormat], dslx_file: str) 
           "    parameter  int TAG_W    = 64,",
           "    // the delay lines at least this deep in block RAM (pgs_delay's BLOCK_MIN_DEPTH; 0: LUT RAM)",
           "    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,",
+          "    // the generated pipes' adder form; the XLS modules have adders of their own: 1 is refused",
+          "    parameter  bit ADD_SHIFT_DSP = 1'b0,",
           "    localparam int W        = 1 + EXP_BITS + MAN_BITS,",
           f"    localparam int N_IN     = {n_in},",
           f"    localparam int N_OUT    = {n_out},",
@@ -182,6 +184,10 @@ def emit_wrapper(split: PipeSplit, formats: list[NumberFormat], dslx_file: str) 
           "        ev_invalid   <= xls_valid && tag_q[TAG_W] ? xls_ev[15:0]  : '0;",
           "    end",
           ""]
+    L += ["    if (ADD_SHIFT_DSP) begin : g_no_dsp_adders",
+          f'        $error("{g.name} (XLS datapath): the XLS modules have adders of their own; ADD_SHIFT_DSP = 1 '
+          'needs the generated pipes");',
+          "    end", ""]
     for i, fmt in enumerate(formats):
         cond = f"EXP_BITS == {fmt.exp_bits} && MAN_BITS == {fmt.man_bits}"
         L.append(f"    {'if' if i == 0 else 'end else if'} ({cond}) begin : g_e{fmt.exp_bits}m{fmt.man_bits}   "

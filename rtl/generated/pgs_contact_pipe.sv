@@ -29,6 +29,9 @@ module pgs_contact_pipe #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 53,
     localparam int N_OUT    = 16,
@@ -518,7 +521,7 @@ module pgs_contact_pipe #(
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
@@ -532,7 +535,7 @@ module pgs_contact_pipe #(
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
@@ -546,7 +549,7 @@ module pgs_contact_pipe #(
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
@@ -588,7 +591,7 @@ module pgs_contact_pipe #(
     // pt0_cA_x = pt0_mul64 - pt0_mul65   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul64), .b(dl_pt0_mul65), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
@@ -630,7 +633,7 @@ module pgs_contact_pipe #(
     // pt0_cA_y = pt0_mul67 - pt0_mul68   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul67), .b(dl_pt0_mul68), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
@@ -672,7 +675,7 @@ module pgs_contact_pipe #(
     // pt0_cA_z = pt0_mul70 - pt0_mul71   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul70), .b(dl_pt0_mul71), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
@@ -686,7 +689,7 @@ module pgs_contact_pipe #(
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
@@ -700,7 +703,7 @@ module pgs_contact_pipe #(
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
@@ -714,7 +717,7 @@ module pgs_contact_pipe #(
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
@@ -756,7 +759,7 @@ module pgs_contact_pipe #(
     // pt0_cB_x = pt0_mul76 - pt0_mul77   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul76), .b(dl_pt0_mul77), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
@@ -798,7 +801,7 @@ module pgs_contact_pipe #(
     // pt0_cB_y = pt0_mul79 - pt0_mul80   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul79), .b(dl_pt0_mul80), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
@@ -840,7 +843,7 @@ module pgs_contact_pipe #(
     // pt0_cB_z = pt0_mul82 - pt0_mul83   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul82), .b(dl_pt0_mul83), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
@@ -882,7 +885,7 @@ module pgs_contact_pipe #(
     // pt0_add87 = pt0_mul85 + pt0_mul86   (ready @7/7/7)
     logic [W-1:0] pt0_add87;
     logic [2:0] fl_pt0_add87;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add87 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add87 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul85), .b(dl_pt0_mul86), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add87), .flags(fl_pt0_add87)
     );
@@ -910,7 +913,7 @@ module pgs_contact_pipe #(
     // pt0_add89 = pt0_add87 + pt0_mul88   (ready @11/11/11)
     logic [W-1:0] pt0_add89;
     logic [2:0] fl_pt0_add89;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add89 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add89 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add87), .b(dl_pt0_mul88), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add89), .flags(fl_pt0_add89)
     );
@@ -952,7 +955,7 @@ module pgs_contact_pipe #(
     // pt0_add92 = pt0_mul90 + pt0_mul91   (ready @7/7/7)
     logic [W-1:0] pt0_add92;
     logic [2:0] fl_pt0_add92;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add92 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add92 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul90), .b(dl_pt0_mul91), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add92), .flags(fl_pt0_add92)
     );
@@ -980,7 +983,7 @@ module pgs_contact_pipe #(
     // pt0_add94 = pt0_add92 + pt0_mul93   (ready @11/11/11)
     logic [W-1:0] pt0_add94;
     logic [2:0] fl_pt0_add94;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add94 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add94 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add92), .b(dl_pt0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add94), .flags(fl_pt0_add94)
     );
@@ -994,7 +997,7 @@ module pgs_contact_pipe #(
     // pt0_sub95 = pt0_add89 - pt0_add94   (ready @15/15/15)
     logic [W-1:0] pt0_sub95;
     logic [2:0] fl_pt0_sub95;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub95 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub95 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add89), .b(dl_pt0_add94), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub95), .flags(fl_pt0_sub95)
     );
@@ -1036,7 +1039,7 @@ module pgs_contact_pipe #(
     // pt0_add98 = pt0_mul96 + pt0_mul97   (ready @18/18/18)
     logic [W-1:0] pt0_add98;
     logic [2:0] fl_pt0_add98;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add98 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add98 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add98), .flags(fl_pt0_add98)
     );
@@ -1064,7 +1067,7 @@ module pgs_contact_pipe #(
     // pt0_add100 = pt0_add98 + pt0_mul99   (ready @22/22/22)
     logic [W-1:0] pt0_add100;
     logic [2:0] fl_pt0_add100;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add100 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add100 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add98), .b(dl_pt0_mul99), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add100), .flags(fl_pt0_add100)
     );
@@ -1106,7 +1109,7 @@ module pgs_contact_pipe #(
     // pt0_add103 = pt0_mul101 + pt0_mul102   (ready @18/18/18)
     logic [W-1:0] pt0_add103;
     logic [2:0] fl_pt0_add103;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add103 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add103 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul101), .b(dl_pt0_mul102), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add103), .flags(fl_pt0_add103)
     );
@@ -1134,7 +1137,7 @@ module pgs_contact_pipe #(
     // pt0_add105 = pt0_add103 + pt0_mul104   (ready @22/22/22)
     logic [W-1:0] pt0_add105;
     logic [2:0] fl_pt0_add105;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add105 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add105 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add103), .b(dl_pt0_mul104), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add105), .flags(fl_pt0_add105)
     );
@@ -1148,7 +1151,7 @@ module pgs_contact_pipe #(
     // pt0_sub106 = pt0_add100 - pt0_add105   (ready @26/26/26)
     logic [W-1:0] pt0_sub106;
     logic [2:0] fl_pt0_sub106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub106 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add100), .b(dl_pt0_add105), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub106), .flags(fl_pt0_sub106)
     );
@@ -1162,7 +1165,7 @@ module pgs_contact_pipe #(
     // pt0_vrel = pt0_sub95 + pt0_sub106   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub95), .b(dl_pt0_sub106), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
@@ -1176,7 +1179,7 @@ module pgs_contact_pipe #(
     // pt0_add108 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add108;
     logic [2:0] fl_pt0_add108;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add108 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add108 (
         .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add108), .flags(fl_pt0_add108)
     );
@@ -1204,7 +1207,7 @@ module pgs_contact_pipe #(
     // pt0_add110 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add110;
     logic [2:0] fl_pt0_add110;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add110 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add110 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(pt0_add110), .flags(fl_pt0_add110)
     );
@@ -1229,7 +1232,7 @@ module pgs_contact_pipe #(
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
@@ -1376,7 +1379,7 @@ module pgs_contact_pipe #(
     // pt0_add123 = vA_x + pt0_mul120   (ready @53/53/53)
     logic [W-1:0] pt0_add123;
     logic [2:0] fl_pt0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(pt0_add123), .flags(fl_pt0_add123)
     );
@@ -1390,7 +1393,7 @@ module pgs_contact_pipe #(
     // pt0_add124 = vA_y + pt0_mul121   (ready @53/53/53)
     logic [W-1:0] pt0_add124;
     logic [2:0] fl_pt0_add124;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add124 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add124 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(pt0_add124), .flags(fl_pt0_add124)
     );
@@ -1404,7 +1407,7 @@ module pgs_contact_pipe #(
     // pt0_add125 = vA_z + pt0_mul122   (ready @53/53/53)
     logic [W-1:0] pt0_add125;
     logic [2:0] fl_pt0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(pt0_add125), .flags(fl_pt0_add125)
     );
@@ -1481,7 +1484,7 @@ module pgs_contact_pipe #(
     // pt0_add132 = wA_x + pt0_mul129   (ready @53/53/53)
     logic [W-1:0] pt0_add132;
     logic [2:0] fl_pt0_add132;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add132 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add132 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(pt0_add132), .flags(fl_pt0_add132)
     );
@@ -1495,7 +1498,7 @@ module pgs_contact_pipe #(
     // pt0_add133 = wA_y + pt0_mul130   (ready @53/53/53)
     logic [W-1:0] pt0_add133;
     logic [2:0] fl_pt0_add133;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add133 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add133 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul130), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(pt0_add133), .flags(fl_pt0_add133)
     );
@@ -1509,7 +1512,7 @@ module pgs_contact_pipe #(
     // pt0_add134 = wA_z + pt0_mul131   (ready @53/53/53)
     logic [W-1:0] pt0_add134;
     logic [2:0] fl_pt0_add134;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add134 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add134 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul131), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add134), .flags(fl_pt0_add134)
     );
@@ -1586,7 +1589,7 @@ module pgs_contact_pipe #(
     // pt0_sub141 = vB_x - pt0_mul138   (ready @53/53/53)
     logic [W-1:0] pt0_sub141;
     logic [2:0] fl_pt0_sub141;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub141 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub141 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul138), .sub(1'b1),
         .out_valid(op_valid_nc[79]), .y(pt0_sub141), .flags(fl_pt0_sub141)
     );
@@ -1600,7 +1603,7 @@ module pgs_contact_pipe #(
     // pt0_sub142 = vB_y - pt0_mul139   (ready @53/53/53)
     logic [W-1:0] pt0_sub142;
     logic [2:0] fl_pt0_sub142;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub142 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub142 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul139), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(pt0_sub142), .flags(fl_pt0_sub142)
     );
@@ -1614,7 +1617,7 @@ module pgs_contact_pipe #(
     // pt0_sub143 = vB_z - pt0_mul140   (ready @53/53/53)
     logic [W-1:0] pt0_sub143;
     logic [2:0] fl_pt0_sub143;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub143 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub143 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul140), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(pt0_sub143), .flags(fl_pt0_sub143)
     );
@@ -1691,7 +1694,7 @@ module pgs_contact_pipe #(
     // pt0_sub150 = wB_x - pt0_mul147   (ready @53/53/53)
     logic [W-1:0] pt0_sub150;
     logic [2:0] fl_pt0_sub150;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub150 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub150 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul147), .sub(1'b1),
         .out_valid(op_valid_nc[85]), .y(pt0_sub150), .flags(fl_pt0_sub150)
     );
@@ -1705,7 +1708,7 @@ module pgs_contact_pipe #(
     // pt0_sub151 = wB_y - pt0_mul148   (ready @53/53/53)
     logic [W-1:0] pt0_sub151;
     logic [2:0] fl_pt0_sub151;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub151 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub151 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul148), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(pt0_sub151), .flags(fl_pt0_sub151)
     );
@@ -1719,7 +1722,7 @@ module pgs_contact_pipe #(
     // pt0_sub152 = wB_z - pt0_mul149   (ready @53/53/53)
     logic [W-1:0] pt0_sub152;
     logic [2:0] fl_pt0_sub152;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub152 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub152 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul149), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(pt0_sub152), .flags(fl_pt0_sub152)
     );
@@ -1761,7 +1764,7 @@ module pgs_contact_pipe #(
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
@@ -1775,7 +1778,7 @@ module pgs_contact_pipe #(
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
@@ -1789,7 +1792,7 @@ module pgs_contact_pipe #(
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
@@ -1831,7 +1834,7 @@ module pgs_contact_pipe #(
     // pt1_cA_x = pt1_mul160 - pt1_mul161   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul160), .b(dl_pt1_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
@@ -1873,7 +1876,7 @@ module pgs_contact_pipe #(
     // pt1_cA_y = pt1_mul163 - pt1_mul164   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul163), .b(dl_pt1_mul164), .sub(1'b1),
         .out_valid(op_valid_nc[96]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
@@ -1915,7 +1918,7 @@ module pgs_contact_pipe #(
     // pt1_cA_z = pt1_mul166 - pt1_mul167   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul166), .b(dl_pt1_mul167), .sub(1'b1),
         .out_valid(op_valid_nc[99]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
@@ -1929,7 +1932,7 @@ module pgs_contact_pipe #(
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
@@ -1943,7 +1946,7 @@ module pgs_contact_pipe #(
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
@@ -1957,7 +1960,7 @@ module pgs_contact_pipe #(
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
@@ -1999,7 +2002,7 @@ module pgs_contact_pipe #(
     // pt1_cB_x = pt1_mul172 - pt1_mul173   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul172), .b(dl_pt1_mul173), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
@@ -2041,7 +2044,7 @@ module pgs_contact_pipe #(
     // pt1_cB_y = pt1_mul175 - pt1_mul176   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul175), .b(dl_pt1_mul176), .sub(1'b1),
         .out_valid(op_valid_nc[108]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
@@ -2083,7 +2086,7 @@ module pgs_contact_pipe #(
     // pt1_cB_z = pt1_mul178 - pt1_mul179   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul178), .b(dl_pt1_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
@@ -2125,7 +2128,7 @@ module pgs_contact_pipe #(
     // pt1_add183 = pt1_mul181 + pt1_mul182   (ready @60/60/60)
     logic [W-1:0] pt1_add183;
     logic [2:0] fl_pt1_add183;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add183 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add183 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul181), .b(dl_pt1_mul182), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(pt1_add183), .flags(fl_pt1_add183)
     );
@@ -2153,7 +2156,7 @@ module pgs_contact_pipe #(
     // pt1_add185 = pt1_add183 + pt1_mul184   (ready @64/64/64)
     logic [W-1:0] pt1_add185;
     logic [2:0] fl_pt1_add185;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add185 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add185 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add183), .b(dl_pt1_mul184), .sub(1'b0),
         .out_valid(op_valid_nc[116]), .y(pt1_add185), .flags(fl_pt1_add185)
     );
@@ -2195,7 +2198,7 @@ module pgs_contact_pipe #(
     // pt1_add188 = pt1_mul186 + pt1_mul187   (ready @60/60/60)
     logic [W-1:0] pt1_add188;
     logic [2:0] fl_pt1_add188;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add188 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add188 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul186), .b(dl_pt1_mul187), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(pt1_add188), .flags(fl_pt1_add188)
     );
@@ -2223,7 +2226,7 @@ module pgs_contact_pipe #(
     // pt1_add190 = pt1_add188 + pt1_mul189   (ready @64/64/64)
     logic [W-1:0] pt1_add190;
     logic [2:0] fl_pt1_add190;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add190 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add190 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add188), .b(dl_pt1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[121]), .y(pt1_add190), .flags(fl_pt1_add190)
     );
@@ -2237,7 +2240,7 @@ module pgs_contact_pipe #(
     // pt1_sub191 = pt1_add185 - pt1_add190   (ready @68/68/68)
     logic [W-1:0] pt1_sub191;
     logic [2:0] fl_pt1_sub191;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub191 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub191 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add185), .b(dl_pt1_add190), .sub(1'b1),
         .out_valid(op_valid_nc[122]), .y(pt1_sub191), .flags(fl_pt1_sub191)
     );
@@ -2279,7 +2282,7 @@ module pgs_contact_pipe #(
     // pt1_add194 = pt1_mul192 + pt1_mul193   (ready @60/60/60)
     logic [W-1:0] pt1_add194;
     logic [2:0] fl_pt1_add194;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add194 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add194 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul192), .b(dl_pt1_mul193), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(pt1_add194), .flags(fl_pt1_add194)
     );
@@ -2307,7 +2310,7 @@ module pgs_contact_pipe #(
     // pt1_add196 = pt1_add194 + pt1_mul195   (ready @64/64/64)
     logic [W-1:0] pt1_add196;
     logic [2:0] fl_pt1_add196;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add196 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add196 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add194), .b(dl_pt1_mul195), .sub(1'b0),
         .out_valid(op_valid_nc[127]), .y(pt1_add196), .flags(fl_pt1_add196)
     );
@@ -2349,7 +2352,7 @@ module pgs_contact_pipe #(
     // pt1_add199 = pt1_mul197 + pt1_mul198   (ready @60/60/60)
     logic [W-1:0] pt1_add199;
     logic [2:0] fl_pt1_add199;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add199 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add199 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul197), .b(dl_pt1_mul198), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(pt1_add199), .flags(fl_pt1_add199)
     );
@@ -2377,7 +2380,7 @@ module pgs_contact_pipe #(
     // pt1_add201 = pt1_add199 + pt1_mul200   (ready @64/64/64)
     logic [W-1:0] pt1_add201;
     logic [2:0] fl_pt1_add201;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add201 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add201 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add199), .b(dl_pt1_mul200), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(pt1_add201), .flags(fl_pt1_add201)
     );
@@ -2391,7 +2394,7 @@ module pgs_contact_pipe #(
     // pt1_sub202 = pt1_add196 - pt1_add201   (ready @68/68/68)
     logic [W-1:0] pt1_sub202;
     logic [2:0] fl_pt1_sub202;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub202 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub202 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add196), .b(dl_pt1_add201), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(pt1_sub202), .flags(fl_pt1_sub202)
     );
@@ -2405,7 +2408,7 @@ module pgs_contact_pipe #(
     // pt1_vrel = pt1_sub191 + pt1_sub202   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub191), .b(dl_pt1_sub202), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
@@ -2419,7 +2422,7 @@ module pgs_contact_pipe #(
     // pt1_add204 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add204;
     logic [2:0] fl_pt1_add204;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add204 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add204 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(pt1_add204), .flags(fl_pt1_add204)
     );
@@ -2447,7 +2450,7 @@ module pgs_contact_pipe #(
     // pt1_add206 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add206;
     logic [2:0] fl_pt1_add206;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add206 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add206 (
         .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[137]), .y(pt1_add206), .flags(fl_pt1_add206)
     );
@@ -2472,7 +2475,7 @@ module pgs_contact_pipe #(
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[139]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
@@ -2619,7 +2622,7 @@ module pgs_contact_pipe #(
     // pt1_add219 = pt0_vA_x + pt1_mul216   (ready @95/95/95)
     logic [W-1:0] pt1_add219;
     logic [2:0] fl_pt1_add219;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add219 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add219 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul216), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(pt1_add219), .flags(fl_pt1_add219)
     );
@@ -2633,7 +2636,7 @@ module pgs_contact_pipe #(
     // pt1_add220 = pt0_vA_y + pt1_mul217   (ready @95/95/95)
     logic [W-1:0] pt1_add220;
     logic [2:0] fl_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[150]), .y(pt1_add220), .flags(fl_pt1_add220)
     );
@@ -2647,7 +2650,7 @@ module pgs_contact_pipe #(
     // pt1_add221 = pt0_vA_z + pt1_mul218   (ready @95/95/95)
     logic [W-1:0] pt1_add221;
     logic [2:0] fl_pt1_add221;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add221 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add221 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul218), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add221), .flags(fl_pt1_add221)
     );
@@ -2724,7 +2727,7 @@ module pgs_contact_pipe #(
     // pt1_add228 = pt0_wA_x + pt1_mul225   (ready @95/95/95)
     logic [W-1:0] pt1_add228;
     logic [2:0] fl_pt1_add228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add228 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul225), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(pt1_add228), .flags(fl_pt1_add228)
     );
@@ -2738,7 +2741,7 @@ module pgs_contact_pipe #(
     // pt1_add229 = pt0_wA_y + pt1_mul226   (ready @95/95/95)
     logic [W-1:0] pt1_add229;
     logic [2:0] fl_pt1_add229;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add229 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add229 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(pt1_add229), .flags(fl_pt1_add229)
     );
@@ -2752,7 +2755,7 @@ module pgs_contact_pipe #(
     // pt1_add230 = pt0_wA_z + pt1_mul227   (ready @95/95/95)
     logic [W-1:0] pt1_add230;
     logic [2:0] fl_pt1_add230;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add230 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add230 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul227), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(pt1_add230), .flags(fl_pt1_add230)
     );
@@ -2829,7 +2832,7 @@ module pgs_contact_pipe #(
     // pt1_sub237 = pt0_vB_x - pt1_mul234   (ready @95/95/95)
     logic [W-1:0] pt1_sub237;
     logic [2:0] fl_pt1_sub237;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub237 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub237 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul234), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(pt1_sub237), .flags(fl_pt1_sub237)
     );
@@ -2843,7 +2846,7 @@ module pgs_contact_pipe #(
     // pt1_sub238 = pt0_vB_y - pt1_mul235   (ready @95/95/95)
     logic [W-1:0] pt1_sub238;
     logic [2:0] fl_pt1_sub238;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub238 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub238 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul235), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(pt1_sub238), .flags(fl_pt1_sub238)
     );
@@ -2857,7 +2860,7 @@ module pgs_contact_pipe #(
     // pt1_sub239 = pt0_vB_z - pt1_mul236   (ready @95/95/95)
     logic [W-1:0] pt1_sub239;
     logic [2:0] fl_pt1_sub239;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub239 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub239 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul236), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_sub239), .flags(fl_pt1_sub239)
     );
@@ -2934,7 +2937,7 @@ module pgs_contact_pipe #(
     // pt1_sub246 = pt0_wB_x - pt1_mul243   (ready @95/95/95)
     logic [W-1:0] pt1_sub246;
     logic [2:0] fl_pt1_sub246;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub246 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub246 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul243), .sub(1'b1),
         .out_valid(op_valid_nc[167]), .y(pt1_sub246), .flags(fl_pt1_sub246)
     );
@@ -2948,7 +2951,7 @@ module pgs_contact_pipe #(
     // pt1_sub247 = pt0_wB_y - pt1_mul244   (ready @95/95/95)
     logic [W-1:0] pt1_sub247;
     logic [2:0] fl_pt1_sub247;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub247 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub247 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul244), .sub(1'b1),
         .out_valid(op_valid_nc[168]), .y(pt1_sub247), .flags(fl_pt1_sub247)
     );
@@ -2962,7 +2965,7 @@ module pgs_contact_pipe #(
     // pt1_sub248 = pt0_wB_z - pt1_mul245   (ready @95/95/95)
     logic [W-1:0] pt1_sub248;
     logic [2:0] fl_pt1_sub248;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub248 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub248 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul245), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(pt1_sub248), .flags(fl_pt1_sub248)
     );
@@ -3004,7 +3007,7 @@ module pgs_contact_pipe #(
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
@@ -3018,7 +3021,7 @@ module pgs_contact_pipe #(
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
@@ -3032,7 +3035,7 @@ module pgs_contact_pipe #(
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
@@ -3074,7 +3077,7 @@ module pgs_contact_pipe #(
     // pt2_cA_x = pt2_mul256 - pt2_mul257   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul256), .b(dl_pt2_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[175]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
@@ -3116,7 +3119,7 @@ module pgs_contact_pipe #(
     // pt2_cA_y = pt2_mul259 - pt2_mul260   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul259), .b(dl_pt2_mul260), .sub(1'b1),
         .out_valid(op_valid_nc[178]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
@@ -3158,7 +3161,7 @@ module pgs_contact_pipe #(
     // pt2_cA_z = pt2_mul262 - pt2_mul263   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul262), .b(dl_pt2_mul263), .sub(1'b1),
         .out_valid(op_valid_nc[181]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
@@ -3172,7 +3175,7 @@ module pgs_contact_pipe #(
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[182]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
@@ -3186,7 +3189,7 @@ module pgs_contact_pipe #(
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
@@ -3200,7 +3203,7 @@ module pgs_contact_pipe #(
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
@@ -3242,7 +3245,7 @@ module pgs_contact_pipe #(
     // pt2_cB_x = pt2_mul268 - pt2_mul269   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul268), .b(dl_pt2_mul269), .sub(1'b1),
         .out_valid(op_valid_nc[187]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
@@ -3284,7 +3287,7 @@ module pgs_contact_pipe #(
     // pt2_cB_y = pt2_mul271 - pt2_mul272   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul271), .b(dl_pt2_mul272), .sub(1'b1),
         .out_valid(op_valid_nc[190]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
@@ -3326,7 +3329,7 @@ module pgs_contact_pipe #(
     // pt2_cB_z = pt2_mul274 - pt2_mul275   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul274), .b(dl_pt2_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
@@ -3368,7 +3371,7 @@ module pgs_contact_pipe #(
     // pt2_add279 = pt2_mul277 + pt2_mul278   (ready @102/102/102)
     logic [W-1:0] pt2_add279;
     logic [2:0] fl_pt2_add279;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add279 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add279 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul277), .b(dl_pt2_mul278), .sub(1'b0),
         .out_valid(op_valid_nc[196]), .y(pt2_add279), .flags(fl_pt2_add279)
     );
@@ -3396,7 +3399,7 @@ module pgs_contact_pipe #(
     // pt2_add281 = pt2_add279 + pt2_mul280   (ready @106/106/106)
     logic [W-1:0] pt2_add281;
     logic [2:0] fl_pt2_add281;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add281 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add281 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add279), .b(dl_pt2_mul280), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt2_add281), .flags(fl_pt2_add281)
     );
@@ -3438,7 +3441,7 @@ module pgs_contact_pipe #(
     // pt2_add284 = pt2_mul282 + pt2_mul283   (ready @102/102/102)
     logic [W-1:0] pt2_add284;
     logic [2:0] fl_pt2_add284;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add284 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add284 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul282), .b(dl_pt2_mul283), .sub(1'b0),
         .out_valid(op_valid_nc[201]), .y(pt2_add284), .flags(fl_pt2_add284)
     );
@@ -3466,7 +3469,7 @@ module pgs_contact_pipe #(
     // pt2_add286 = pt2_add284 + pt2_mul285   (ready @106/106/106)
     logic [W-1:0] pt2_add286;
     logic [2:0] fl_pt2_add286;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add286 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add286 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add284), .b(dl_pt2_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt2_add286), .flags(fl_pt2_add286)
     );
@@ -3480,7 +3483,7 @@ module pgs_contact_pipe #(
     // pt2_sub287 = pt2_add281 - pt2_add286   (ready @110/110/110)
     logic [W-1:0] pt2_sub287;
     logic [2:0] fl_pt2_sub287;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub287 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub287 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add281), .b(dl_pt2_add286), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(pt2_sub287), .flags(fl_pt2_sub287)
     );
@@ -3522,7 +3525,7 @@ module pgs_contact_pipe #(
     // pt2_add290 = pt2_mul288 + pt2_mul289   (ready @102/102/102)
     logic [W-1:0] pt2_add290;
     logic [2:0] fl_pt2_add290;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add290 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add290 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul288), .b(dl_pt2_mul289), .sub(1'b0),
         .out_valid(op_valid_nc[207]), .y(pt2_add290), .flags(fl_pt2_add290)
     );
@@ -3550,7 +3553,7 @@ module pgs_contact_pipe #(
     // pt2_add292 = pt2_add290 + pt2_mul291   (ready @106/106/106)
     logic [W-1:0] pt2_add292;
     logic [2:0] fl_pt2_add292;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add292 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add292 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add290), .b(dl_pt2_mul291), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(pt2_add292), .flags(fl_pt2_add292)
     );
@@ -3592,7 +3595,7 @@ module pgs_contact_pipe #(
     // pt2_add295 = pt2_mul293 + pt2_mul294   (ready @102/102/102)
     logic [W-1:0] pt2_add295;
     logic [2:0] fl_pt2_add295;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add295 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add295 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul293), .b(dl_pt2_mul294), .sub(1'b0),
         .out_valid(op_valid_nc[212]), .y(pt2_add295), .flags(fl_pt2_add295)
     );
@@ -3620,7 +3623,7 @@ module pgs_contact_pipe #(
     // pt2_add297 = pt2_add295 + pt2_mul296   (ready @106/106/106)
     logic [W-1:0] pt2_add297;
     logic [2:0] fl_pt2_add297;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add297 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add297 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add295), .b(dl_pt2_mul296), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(pt2_add297), .flags(fl_pt2_add297)
     );
@@ -3634,7 +3637,7 @@ module pgs_contact_pipe #(
     // pt2_sub298 = pt2_add292 - pt2_add297   (ready @110/110/110)
     logic [W-1:0] pt2_sub298;
     logic [2:0] fl_pt2_sub298;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub298 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub298 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add292), .b(dl_pt2_add297), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(pt2_sub298), .flags(fl_pt2_sub298)
     );
@@ -3648,7 +3651,7 @@ module pgs_contact_pipe #(
     // pt2_vrel = pt2_sub287 + pt2_sub298   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub287), .b(dl_pt2_sub298), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
@@ -3662,7 +3665,7 @@ module pgs_contact_pipe #(
     // pt2_add300 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add300;
     logic [2:0] fl_pt2_add300;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add300 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add300 (
         .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[217]), .y(pt2_add300), .flags(fl_pt2_add300)
     );
@@ -3690,7 +3693,7 @@ module pgs_contact_pipe #(
     // pt2_add302 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add302;
     logic [2:0] fl_pt2_add302;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add302 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add302 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(pt2_add302), .flags(fl_pt2_add302)
     );
@@ -3715,7 +3718,7 @@ module pgs_contact_pipe #(
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
@@ -3862,7 +3865,7 @@ module pgs_contact_pipe #(
     // pt2_add315 = pt1_vA_x + pt2_mul312   (ready @137/137/137)
     logic [W-1:0] pt2_add315;
     logic [2:0] fl_pt2_add315;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add315 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add315 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul312), .sub(1'b0),
         .out_valid(op_valid_nc[231]), .y(pt2_add315), .flags(fl_pt2_add315)
     );
@@ -3876,7 +3879,7 @@ module pgs_contact_pipe #(
     // pt2_add316 = pt1_vA_y + pt2_mul313   (ready @137/137/137)
     logic [W-1:0] pt2_add316;
     logic [2:0] fl_pt2_add316;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add316 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add316 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul313), .sub(1'b0),
         .out_valid(op_valid_nc[232]), .y(pt2_add316), .flags(fl_pt2_add316)
     );
@@ -3890,7 +3893,7 @@ module pgs_contact_pipe #(
     // pt2_add317 = pt1_vA_z + pt2_mul314   (ready @137/137/137)
     logic [W-1:0] pt2_add317;
     logic [2:0] fl_pt2_add317;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add317 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add317 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul314), .sub(1'b0),
         .out_valid(op_valid_nc[233]), .y(pt2_add317), .flags(fl_pt2_add317)
     );
@@ -3967,7 +3970,7 @@ module pgs_contact_pipe #(
     // pt2_add324 = pt1_wA_x + pt2_mul321   (ready @137/137/137)
     logic [W-1:0] pt2_add324;
     logic [2:0] fl_pt2_add324;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add324 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add324 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul321), .sub(1'b0),
         .out_valid(op_valid_nc[237]), .y(pt2_add324), .flags(fl_pt2_add324)
     );
@@ -3981,7 +3984,7 @@ module pgs_contact_pipe #(
     // pt2_add325 = pt1_wA_y + pt2_mul322   (ready @137/137/137)
     logic [W-1:0] pt2_add325;
     logic [2:0] fl_pt2_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul322), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(pt2_add325), .flags(fl_pt2_add325)
     );
@@ -3995,7 +3998,7 @@ module pgs_contact_pipe #(
     // pt2_add326 = pt1_wA_z + pt2_mul323   (ready @137/137/137)
     logic [W-1:0] pt2_add326;
     logic [2:0] fl_pt2_add326;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add326 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add326 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul323), .sub(1'b0),
         .out_valid(op_valid_nc[239]), .y(pt2_add326), .flags(fl_pt2_add326)
     );
@@ -4072,7 +4075,7 @@ module pgs_contact_pipe #(
     // pt2_sub333 = pt1_vB_x - pt2_mul330   (ready @137/137/137)
     logic [W-1:0] pt2_sub333;
     logic [2:0] fl_pt2_sub333;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub333 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub333 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul330), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(pt2_sub333), .flags(fl_pt2_sub333)
     );
@@ -4086,7 +4089,7 @@ module pgs_contact_pipe #(
     // pt2_sub334 = pt1_vB_y - pt2_mul331   (ready @137/137/137)
     logic [W-1:0] pt2_sub334;
     logic [2:0] fl_pt2_sub334;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub334 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub334 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul331), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(pt2_sub334), .flags(fl_pt2_sub334)
     );
@@ -4100,7 +4103,7 @@ module pgs_contact_pipe #(
     // pt2_sub335 = pt1_vB_z - pt2_mul332   (ready @137/137/137)
     logic [W-1:0] pt2_sub335;
     logic [2:0] fl_pt2_sub335;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub335 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub335 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul332), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(pt2_sub335), .flags(fl_pt2_sub335)
     );
@@ -4177,7 +4180,7 @@ module pgs_contact_pipe #(
     // pt2_sub342 = pt1_wB_x - pt2_mul339   (ready @137/137/137)
     logic [W-1:0] pt2_sub342;
     logic [2:0] fl_pt2_sub342;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub342 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub342 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul339), .sub(1'b1),
         .out_valid(op_valid_nc[249]), .y(pt2_sub342), .flags(fl_pt2_sub342)
     );
@@ -4191,7 +4194,7 @@ module pgs_contact_pipe #(
     // pt2_sub343 = pt1_wB_y - pt2_mul340   (ready @137/137/137)
     logic [W-1:0] pt2_sub343;
     logic [2:0] fl_pt2_sub343;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub343 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub343 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul340), .sub(1'b1),
         .out_valid(op_valid_nc[250]), .y(pt2_sub343), .flags(fl_pt2_sub343)
     );
@@ -4205,7 +4208,7 @@ module pgs_contact_pipe #(
     // pt2_sub344 = pt1_wB_z - pt2_mul341   (ready @137/137/137)
     logic [W-1:0] pt2_sub344;
     logic [2:0] fl_pt2_sub344;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub344 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub344 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul341), .sub(1'b1),
         .out_valid(op_valid_nc[251]), .y(pt2_sub344), .flags(fl_pt2_sub344)
     );
@@ -4247,7 +4250,7 @@ module pgs_contact_pipe #(
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
@@ -4261,7 +4264,7 @@ module pgs_contact_pipe #(
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
@@ -4275,7 +4278,7 @@ module pgs_contact_pipe #(
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
@@ -4317,7 +4320,7 @@ module pgs_contact_pipe #(
     // pt3_cA_x = pt3_mul352 - pt3_mul353   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul352), .b(dl_pt3_mul353), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
@@ -4359,7 +4362,7 @@ module pgs_contact_pipe #(
     // pt3_cA_y = pt3_mul355 - pt3_mul356   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul355), .b(dl_pt3_mul356), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
@@ -4401,7 +4404,7 @@ module pgs_contact_pipe #(
     // pt3_cA_z = pt3_mul358 - pt3_mul359   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul358), .b(dl_pt3_mul359), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
@@ -4415,7 +4418,7 @@ module pgs_contact_pipe #(
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[264]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
@@ -4429,7 +4432,7 @@ module pgs_contact_pipe #(
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[265]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
@@ -4443,7 +4446,7 @@ module pgs_contact_pipe #(
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
@@ -4485,7 +4488,7 @@ module pgs_contact_pipe #(
     // pt3_cB_x = pt3_mul364 - pt3_mul365   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul364), .b(dl_pt3_mul365), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
@@ -4527,7 +4530,7 @@ module pgs_contact_pipe #(
     // pt3_cB_y = pt3_mul367 - pt3_mul368   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul367), .b(dl_pt3_mul368), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
@@ -4569,7 +4572,7 @@ module pgs_contact_pipe #(
     // pt3_cB_z = pt3_mul370 - pt3_mul371   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul370), .b(dl_pt3_mul371), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
@@ -4611,7 +4614,7 @@ module pgs_contact_pipe #(
     // pt3_add375 = pt3_mul373 + pt3_mul374   (ready @144/144/144)
     logic [W-1:0] pt3_add375;
     logic [2:0] fl_pt3_add375;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add375 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add375 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul373), .b(dl_pt3_mul374), .sub(1'b0),
         .out_valid(op_valid_nc[278]), .y(pt3_add375), .flags(fl_pt3_add375)
     );
@@ -4639,7 +4642,7 @@ module pgs_contact_pipe #(
     // pt3_add377 = pt3_add375 + pt3_mul376   (ready @148/148/148)
     logic [W-1:0] pt3_add377;
     logic [2:0] fl_pt3_add377;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add377 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add377 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add375), .b(dl_pt3_mul376), .sub(1'b0),
         .out_valid(op_valid_nc[280]), .y(pt3_add377), .flags(fl_pt3_add377)
     );
@@ -4681,7 +4684,7 @@ module pgs_contact_pipe #(
     // pt3_add380 = pt3_mul378 + pt3_mul379   (ready @144/144/144)
     logic [W-1:0] pt3_add380;
     logic [2:0] fl_pt3_add380;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add380 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add380 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul378), .b(dl_pt3_mul379), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(pt3_add380), .flags(fl_pt3_add380)
     );
@@ -4709,7 +4712,7 @@ module pgs_contact_pipe #(
     // pt3_add382 = pt3_add380 + pt3_mul381   (ready @148/148/148)
     logic [W-1:0] pt3_add382;
     logic [2:0] fl_pt3_add382;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add382 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add382 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add380), .b(dl_pt3_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[285]), .y(pt3_add382), .flags(fl_pt3_add382)
     );
@@ -4723,7 +4726,7 @@ module pgs_contact_pipe #(
     // pt3_sub383 = pt3_add377 - pt3_add382   (ready @152/152/152)
     logic [W-1:0] pt3_sub383;
     logic [2:0] fl_pt3_sub383;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub383 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub383 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add377), .b(dl_pt3_add382), .sub(1'b1),
         .out_valid(op_valid_nc[286]), .y(pt3_sub383), .flags(fl_pt3_sub383)
     );
@@ -4765,7 +4768,7 @@ module pgs_contact_pipe #(
     // pt3_add386 = pt3_mul384 + pt3_mul385   (ready @144/144/144)
     logic [W-1:0] pt3_add386;
     logic [2:0] fl_pt3_add386;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add386 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add386 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul384), .b(dl_pt3_mul385), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(pt3_add386), .flags(fl_pt3_add386)
     );
@@ -4793,7 +4796,7 @@ module pgs_contact_pipe #(
     // pt3_add388 = pt3_add386 + pt3_mul387   (ready @148/148/148)
     logic [W-1:0] pt3_add388;
     logic [2:0] fl_pt3_add388;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add388 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add388 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add386), .b(dl_pt3_mul387), .sub(1'b0),
         .out_valid(op_valid_nc[291]), .y(pt3_add388), .flags(fl_pt3_add388)
     );
@@ -4835,7 +4838,7 @@ module pgs_contact_pipe #(
     // pt3_add391 = pt3_mul389 + pt3_mul390   (ready @144/144/144)
     logic [W-1:0] pt3_add391;
     logic [2:0] fl_pt3_add391;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add391 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add391 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul389), .b(dl_pt3_mul390), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt3_add391), .flags(fl_pt3_add391)
     );
@@ -4863,7 +4866,7 @@ module pgs_contact_pipe #(
     // pt3_add393 = pt3_add391 + pt3_mul392   (ready @148/148/148)
     logic [W-1:0] pt3_add393;
     logic [2:0] fl_pt3_add393;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add393 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add393 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add391), .b(dl_pt3_mul392), .sub(1'b0),
         .out_valid(op_valid_nc[296]), .y(pt3_add393), .flags(fl_pt3_add393)
     );
@@ -4877,7 +4880,7 @@ module pgs_contact_pipe #(
     // pt3_sub394 = pt3_add388 - pt3_add393   (ready @152/152/152)
     logic [W-1:0] pt3_sub394;
     logic [2:0] fl_pt3_sub394;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub394 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub394 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add388), .b(dl_pt3_add393), .sub(1'b1),
         .out_valid(op_valid_nc[297]), .y(pt3_sub394), .flags(fl_pt3_sub394)
     );
@@ -4891,7 +4894,7 @@ module pgs_contact_pipe #(
     // pt3_vrel = pt3_sub383 + pt3_sub394   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub383), .b(dl_pt3_sub394), .sub(1'b0),
         .out_valid(op_valid_nc[298]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
@@ -4905,7 +4908,7 @@ module pgs_contact_pipe #(
     // pt3_add396 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add396;
     logic [2:0] fl_pt3_add396;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add396 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add396 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt3_add396), .flags(fl_pt3_add396)
     );
@@ -4933,7 +4936,7 @@ module pgs_contact_pipe #(
     // pt3_add398 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add398;
     logic [2:0] fl_pt3_add398;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add398 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add398 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(pt3_add398), .flags(fl_pt3_add398)
     );
@@ -4958,7 +4961,7 @@ module pgs_contact_pipe #(
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[303]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
@@ -5105,7 +5108,7 @@ module pgs_contact_pipe #(
     // pt3_add411 = pt2_vA_x + pt3_mul408   (ready @179/179/179)
     logic [W-1:0] pt3_add411;
     logic [2:0] fl_pt3_add411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add411 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul408), .sub(1'b0),
         .out_valid(op_valid_nc[313]), .y(pt3_add411), .flags(fl_pt3_add411)
     );
@@ -5119,7 +5122,7 @@ module pgs_contact_pipe #(
     // pt3_add412 = pt2_vA_y + pt3_mul409   (ready @179/179/179)
     logic [W-1:0] pt3_add412;
     logic [2:0] fl_pt3_add412;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add412 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add412 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul409), .sub(1'b0),
         .out_valid(op_valid_nc[314]), .y(pt3_add412), .flags(fl_pt3_add412)
     );
@@ -5133,7 +5136,7 @@ module pgs_contact_pipe #(
     // pt3_add413 = pt2_vA_z + pt3_mul410   (ready @179/179/179)
     logic [W-1:0] pt3_add413;
     logic [2:0] fl_pt3_add413;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add413 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add413 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul410), .sub(1'b0),
         .out_valid(op_valid_nc[315]), .y(pt3_add413), .flags(fl_pt3_add413)
     );
@@ -5210,7 +5213,7 @@ module pgs_contact_pipe #(
     // pt3_add420 = pt2_wA_x + pt3_mul417   (ready @179/179/179)
     logic [W-1:0] pt3_add420;
     logic [2:0] fl_pt3_add420;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add420 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add420 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul417), .sub(1'b0),
         .out_valid(op_valid_nc[319]), .y(pt3_add420), .flags(fl_pt3_add420)
     );
@@ -5224,7 +5227,7 @@ module pgs_contact_pipe #(
     // pt3_add421 = pt2_wA_y + pt3_mul418   (ready @179/179/179)
     logic [W-1:0] pt3_add421;
     logic [2:0] fl_pt3_add421;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add421 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add421 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul418), .sub(1'b0),
         .out_valid(op_valid_nc[320]), .y(pt3_add421), .flags(fl_pt3_add421)
     );
@@ -5238,7 +5241,7 @@ module pgs_contact_pipe #(
     // pt3_add422 = pt2_wA_z + pt3_mul419   (ready @179/179/179)
     logic [W-1:0] pt3_add422;
     logic [2:0] fl_pt3_add422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add422 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul419), .sub(1'b0),
         .out_valid(op_valid_nc[321]), .y(pt3_add422), .flags(fl_pt3_add422)
     );
@@ -5315,7 +5318,7 @@ module pgs_contact_pipe #(
     // pt3_sub429 = pt2_vB_x - pt3_mul426   (ready @179/179/179)
     logic [W-1:0] pt3_sub429;
     logic [2:0] fl_pt3_sub429;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub429 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub429 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul426), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(pt3_sub429), .flags(fl_pt3_sub429)
     );
@@ -5329,7 +5332,7 @@ module pgs_contact_pipe #(
     // pt3_sub430 = pt2_vB_y - pt3_mul427   (ready @179/179/179)
     logic [W-1:0] pt3_sub430;
     logic [2:0] fl_pt3_sub430;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub430 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub430 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul427), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(pt3_sub430), .flags(fl_pt3_sub430)
     );
@@ -5343,7 +5346,7 @@ module pgs_contact_pipe #(
     // pt3_sub431 = pt2_vB_z - pt3_mul428   (ready @179/179/179)
     logic [W-1:0] pt3_sub431;
     logic [2:0] fl_pt3_sub431;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub431 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub431 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul428), .sub(1'b1),
         .out_valid(op_valid_nc[327]), .y(pt3_sub431), .flags(fl_pt3_sub431)
     );
@@ -5420,7 +5423,7 @@ module pgs_contact_pipe #(
     // pt3_sub438 = pt2_wB_x - pt3_mul435   (ready @179/179/179)
     logic [W-1:0] pt3_sub438;
     logic [2:0] fl_pt3_sub438;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub438 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub438 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul435), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(pt3_sub438), .flags(fl_pt3_sub438)
     );
@@ -5434,7 +5437,7 @@ module pgs_contact_pipe #(
     // pt3_sub439 = pt2_wB_y - pt3_mul436   (ready @179/179/179)
     logic [W-1:0] pt3_sub439;
     logic [2:0] fl_pt3_sub439;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub439 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub439 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul436), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(pt3_sub439), .flags(fl_pt3_sub439)
     );
@@ -5448,7 +5451,7 @@ module pgs_contact_pipe #(
     // pt3_sub440 = pt2_wB_z - pt3_mul437   (ready @179/179/179)
     logic [W-1:0] pt3_sub440;
     logic [2:0] fl_pt3_sub440;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub440 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub440 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul437), .sub(1'b1),
         .out_valid(op_valid_nc[333]), .y(pt3_sub440), .flags(fl_pt3_sub440)
     );

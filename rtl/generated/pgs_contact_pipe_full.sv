@@ -32,6 +32,9 @@ module pgs_contact_pipe_full #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 59,
     localparam int N_OUT    = 16,
@@ -557,7 +560,7 @@ module pgs_contact_pipe_full #(
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
@@ -571,7 +574,7 @@ module pgs_contact_pipe_full #(
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
@@ -585,7 +588,7 @@ module pgs_contact_pipe_full #(
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
@@ -627,7 +630,7 @@ module pgs_contact_pipe_full #(
     // pt0_cA_x = pt0_mul70 - pt0_mul71   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul70), .b(dl_pt0_mul71), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
@@ -669,7 +672,7 @@ module pgs_contact_pipe_full #(
     // pt0_cA_y = pt0_mul73 - pt0_mul74   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul73), .b(dl_pt0_mul74), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
@@ -711,7 +714,7 @@ module pgs_contact_pipe_full #(
     // pt0_cA_z = pt0_mul76 - pt0_mul77   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul76), .b(dl_pt0_mul77), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
@@ -725,7 +728,7 @@ module pgs_contact_pipe_full #(
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
@@ -739,7 +742,7 @@ module pgs_contact_pipe_full #(
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
@@ -753,7 +756,7 @@ module pgs_contact_pipe_full #(
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
@@ -795,7 +798,7 @@ module pgs_contact_pipe_full #(
     // pt0_cB_x = pt0_mul82 - pt0_mul83   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul82), .b(dl_pt0_mul83), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
@@ -837,7 +840,7 @@ module pgs_contact_pipe_full #(
     // pt0_cB_y = pt0_mul85 - pt0_mul86   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul85), .b(dl_pt0_mul86), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
@@ -879,7 +882,7 @@ module pgs_contact_pipe_full #(
     // pt0_cB_z = pt0_mul88 - pt0_mul89   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul88), .b(dl_pt0_mul89), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
@@ -921,7 +924,7 @@ module pgs_contact_pipe_full #(
     // pt0_add93 = pt0_mul91 + pt0_mul92   (ready @7/7/7)
     logic [W-1:0] pt0_add93;
     logic [2:0] fl_pt0_add93;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add93 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add93 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul91), .b(dl_pt0_mul92), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add93), .flags(fl_pt0_add93)
     );
@@ -949,7 +952,7 @@ module pgs_contact_pipe_full #(
     // pt0_add95 = pt0_add93 + pt0_mul94   (ready @11/11/11)
     logic [W-1:0] pt0_add95;
     logic [2:0] fl_pt0_add95;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add95 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add95 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add93), .b(dl_pt0_mul94), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add95), .flags(fl_pt0_add95)
     );
@@ -991,7 +994,7 @@ module pgs_contact_pipe_full #(
     // pt0_add98 = pt0_mul96 + pt0_mul97   (ready @7/7/7)
     logic [W-1:0] pt0_add98;
     logic [2:0] fl_pt0_add98;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add98 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add98 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add98), .flags(fl_pt0_add98)
     );
@@ -1019,7 +1022,7 @@ module pgs_contact_pipe_full #(
     // pt0_add100 = pt0_add98 + pt0_mul99   (ready @11/11/11)
     logic [W-1:0] pt0_add100;
     logic [2:0] fl_pt0_add100;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add100 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add100 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add98), .b(dl_pt0_mul99), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add100), .flags(fl_pt0_add100)
     );
@@ -1033,7 +1036,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub101 = pt0_add95 - pt0_add100   (ready @15/15/15)
     logic [W-1:0] pt0_sub101;
     logic [2:0] fl_pt0_sub101;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub101 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub101 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add95), .b(dl_pt0_add100), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub101), .flags(fl_pt0_sub101)
     );
@@ -1075,7 +1078,7 @@ module pgs_contact_pipe_full #(
     // pt0_add104 = pt0_mul102 + pt0_mul103   (ready @18/18/18)
     logic [W-1:0] pt0_add104;
     logic [2:0] fl_pt0_add104;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add104 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add104 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul102), .b(dl_pt0_mul103), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add104), .flags(fl_pt0_add104)
     );
@@ -1103,7 +1106,7 @@ module pgs_contact_pipe_full #(
     // pt0_add106 = pt0_add104 + pt0_mul105   (ready @22/22/22)
     logic [W-1:0] pt0_add106;
     logic [2:0] fl_pt0_add106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add106 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add104), .b(dl_pt0_mul105), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add106), .flags(fl_pt0_add106)
     );
@@ -1145,7 +1148,7 @@ module pgs_contact_pipe_full #(
     // pt0_add109 = pt0_mul107 + pt0_mul108   (ready @18/18/18)
     logic [W-1:0] pt0_add109;
     logic [2:0] fl_pt0_add109;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add109 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add109 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul107), .b(dl_pt0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add109), .flags(fl_pt0_add109)
     );
@@ -1173,7 +1176,7 @@ module pgs_contact_pipe_full #(
     // pt0_add111 = pt0_add109 + pt0_mul110   (ready @22/22/22)
     logic [W-1:0] pt0_add111;
     logic [2:0] fl_pt0_add111;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add111 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add111 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add109), .b(dl_pt0_mul110), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add111), .flags(fl_pt0_add111)
     );
@@ -1187,7 +1190,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub112 = pt0_add106 - pt0_add111   (ready @26/26/26)
     logic [W-1:0] pt0_sub112;
     logic [2:0] fl_pt0_sub112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub112 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add106), .b(dl_pt0_add111), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub112), .flags(fl_pt0_sub112)
     );
@@ -1201,7 +1204,7 @@ module pgs_contact_pipe_full #(
     // pt0_vrel = pt0_sub101 + pt0_sub112   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub101), .b(dl_pt0_sub112), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
@@ -1215,7 +1218,7 @@ module pgs_contact_pipe_full #(
     // pt0_add114 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add114;
     logic [2:0] fl_pt0_add114;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add114 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add114 (
         .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add114), .flags(fl_pt0_add114)
     );
@@ -1243,7 +1246,7 @@ module pgs_contact_pipe_full #(
     // pt0_add116 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add116;
     logic [2:0] fl_pt0_add116;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add116 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add116 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(pt0_add116), .flags(fl_pt0_add116)
     );
@@ -1268,7 +1271,7 @@ module pgs_contact_pipe_full #(
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
@@ -1317,7 +1320,7 @@ module pgs_contact_pipe_full #(
     // pt0_add122 = pt0_mul120 + pt0_mul121   (ready @18/18/18)
     logic [W-1:0] pt0_add122;
     logic [2:0] fl_pt0_add122;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add122 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add122 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul120), .b(dl_pt0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[60]), .y(pt0_add122), .flags(fl_pt0_add122)
     );
@@ -1345,7 +1348,7 @@ module pgs_contact_pipe_full #(
     // pt0_angA_x = pt0_add122 + pt0_mul123   (ready @22/22/22)
     logic [W-1:0] pt0_angA_x;
     logic [2:0] fl_pt0_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add122), .b(dl_pt0_mul123), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(pt0_angA_x), .flags(fl_pt0_angA_x)
     );
@@ -1387,7 +1390,7 @@ module pgs_contact_pipe_full #(
     // pt0_add127 = pt0_mul125 + pt0_mul126   (ready @18/18/18)
     logic [W-1:0] pt0_add127;
     logic [2:0] fl_pt0_add127;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add127 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add127 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul125), .b(dl_pt0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[65]), .y(pt0_add127), .flags(fl_pt0_add127)
     );
@@ -1415,7 +1418,7 @@ module pgs_contact_pipe_full #(
     // pt0_angA_y = pt0_add127 + pt0_mul128   (ready @22/22/22)
     logic [W-1:0] pt0_angA_y;
     logic [2:0] fl_pt0_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add127), .b(dl_pt0_mul128), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(pt0_angA_y), .flags(fl_pt0_angA_y)
     );
@@ -1457,7 +1460,7 @@ module pgs_contact_pipe_full #(
     // pt0_add132 = pt0_mul130 + pt0_mul131   (ready @18/18/18)
     logic [W-1:0] pt0_add132;
     logic [2:0] fl_pt0_add132;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add132 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add132 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul130), .b(dl_pt0_mul131), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(pt0_add132), .flags(fl_pt0_add132)
     );
@@ -1485,7 +1488,7 @@ module pgs_contact_pipe_full #(
     // pt0_angA_z = pt0_add132 + pt0_mul133   (ready @22/22/22)
     logic [W-1:0] pt0_angA_z;
     logic [2:0] fl_pt0_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add132), .b(dl_pt0_mul133), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(pt0_angA_z), .flags(fl_pt0_angA_z)
     );
@@ -1527,7 +1530,7 @@ module pgs_contact_pipe_full #(
     // pt0_add137 = pt0_mul135 + pt0_mul136   (ready @18/18/18)
     logic [W-1:0] pt0_add137;
     logic [2:0] fl_pt0_add137;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add137 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add137 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul135), .b(dl_pt0_mul136), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add137), .flags(fl_pt0_add137)
     );
@@ -1555,7 +1558,7 @@ module pgs_contact_pipe_full #(
     // pt0_angB_x = pt0_add137 + pt0_mul138   (ready @22/22/22)
     logic [W-1:0] pt0_angB_x;
     logic [2:0] fl_pt0_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add137), .b(dl_pt0_mul138), .sub(1'b0),
         .out_valid(op_valid_nc[77]), .y(pt0_angB_x), .flags(fl_pt0_angB_x)
     );
@@ -1597,7 +1600,7 @@ module pgs_contact_pipe_full #(
     // pt0_add142 = pt0_mul140 + pt0_mul141   (ready @18/18/18)
     logic [W-1:0] pt0_add142;
     logic [2:0] fl_pt0_add142;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add142 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add142 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul140), .b(dl_pt0_mul141), .sub(1'b0),
         .out_valid(op_valid_nc[80]), .y(pt0_add142), .flags(fl_pt0_add142)
     );
@@ -1625,7 +1628,7 @@ module pgs_contact_pipe_full #(
     // pt0_angB_y = pt0_add142 + pt0_mul143   (ready @22/22/22)
     logic [W-1:0] pt0_angB_y;
     logic [2:0] fl_pt0_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add142), .b(dl_pt0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[82]), .y(pt0_angB_y), .flags(fl_pt0_angB_y)
     );
@@ -1667,7 +1670,7 @@ module pgs_contact_pipe_full #(
     // pt0_add147 = pt0_mul145 + pt0_mul146   (ready @18/18/18)
     logic [W-1:0] pt0_add147;
     logic [2:0] fl_pt0_add147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add147 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul145), .b(dl_pt0_mul146), .sub(1'b0),
         .out_valid(op_valid_nc[85]), .y(pt0_add147), .flags(fl_pt0_add147)
     );
@@ -1695,7 +1698,7 @@ module pgs_contact_pipe_full #(
     // pt0_angB_z = pt0_add147 + pt0_mul148   (ready @22/22/22)
     logic [W-1:0] pt0_angB_z;
     logic [2:0] fl_pt0_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add147), .b(dl_pt0_mul148), .sub(1'b0),
         .out_valid(op_valid_nc[87]), .y(pt0_angB_z), .flags(fl_pt0_angB_z)
     );
@@ -1751,7 +1754,7 @@ module pgs_contact_pipe_full #(
     // pt0_add153 = vA_x + pt0_mul150   (ready @53/53/53)
     logic [W-1:0] pt0_add153;
     logic [2:0] fl_pt0_add153;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add153 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add153 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul150), .sub(1'b0),
         .out_valid(op_valid_nc[91]), .y(pt0_add153), .flags(fl_pt0_add153)
     );
@@ -1765,7 +1768,7 @@ module pgs_contact_pipe_full #(
     // pt0_add154 = vA_y + pt0_mul151   (ready @53/53/53)
     logic [W-1:0] pt0_add154;
     logic [2:0] fl_pt0_add154;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add154 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add154 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul151), .sub(1'b0),
         .out_valid(op_valid_nc[92]), .y(pt0_add154), .flags(fl_pt0_add154)
     );
@@ -1779,7 +1782,7 @@ module pgs_contact_pipe_full #(
     // pt0_add155 = vA_z + pt0_mul152   (ready @53/53/53)
     logic [W-1:0] pt0_add155;
     logic [2:0] fl_pt0_add155;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add155 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add155 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul152), .sub(1'b0),
         .out_valid(op_valid_nc[93]), .y(pt0_add155), .flags(fl_pt0_add155)
     );
@@ -1856,7 +1859,7 @@ module pgs_contact_pipe_full #(
     // pt0_add162 = wA_x + pt0_mul159   (ready @53/53/53)
     logic [W-1:0] pt0_add162;
     logic [2:0] fl_pt0_add162;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add162 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add162 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul159), .sub(1'b0),
         .out_valid(op_valid_nc[97]), .y(pt0_add162), .flags(fl_pt0_add162)
     );
@@ -1870,7 +1873,7 @@ module pgs_contact_pipe_full #(
     // pt0_add163 = wA_y + pt0_mul160   (ready @53/53/53)
     logic [W-1:0] pt0_add163;
     logic [2:0] fl_pt0_add163;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add163 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add163 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul160), .sub(1'b0),
         .out_valid(op_valid_nc[98]), .y(pt0_add163), .flags(fl_pt0_add163)
     );
@@ -1884,7 +1887,7 @@ module pgs_contact_pipe_full #(
     // pt0_add164 = wA_z + pt0_mul161   (ready @53/53/53)
     logic [W-1:0] pt0_add164;
     logic [2:0] fl_pt0_add164;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add164 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add164 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul161), .sub(1'b0),
         .out_valid(op_valid_nc[99]), .y(pt0_add164), .flags(fl_pt0_add164)
     );
@@ -1961,7 +1964,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub171 = vB_x - pt0_mul168   (ready @53/53/53)
     logic [W-1:0] pt0_sub171;
     logic [2:0] fl_pt0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(pt0_sub171), .flags(fl_pt0_sub171)
     );
@@ -1975,7 +1978,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub172 = vB_y - pt0_mul169   (ready @53/53/53)
     logic [W-1:0] pt0_sub172;
     logic [2:0] fl_pt0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[104]), .y(pt0_sub172), .flags(fl_pt0_sub172)
     );
@@ -1989,7 +1992,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub173 = vB_z - pt0_mul170   (ready @53/53/53)
     logic [W-1:0] pt0_sub173;
     logic [2:0] fl_pt0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(pt0_sub173), .flags(fl_pt0_sub173)
     );
@@ -2066,7 +2069,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub180 = wB_x - pt0_mul177   (ready @53/53/53)
     logic [W-1:0] pt0_sub180;
     logic [2:0] fl_pt0_sub180;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub180 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub180 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul177), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(pt0_sub180), .flags(fl_pt0_sub180)
     );
@@ -2080,7 +2083,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub181 = wB_y - pt0_mul178   (ready @53/53/53)
     logic [W-1:0] pt0_sub181;
     logic [2:0] fl_pt0_sub181;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub181 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub181 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul178), .sub(1'b1),
         .out_valid(op_valid_nc[110]), .y(pt0_sub181), .flags(fl_pt0_sub181)
     );
@@ -2094,7 +2097,7 @@ module pgs_contact_pipe_full #(
     // pt0_sub182 = wB_z - pt0_mul179   (ready @53/53/53)
     logic [W-1:0] pt0_sub182;
     logic [2:0] fl_pt0_sub182;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub182 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub182 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(pt0_sub182), .flags(fl_pt0_sub182)
     );
@@ -2136,7 +2139,7 @@ module pgs_contact_pipe_full #(
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
@@ -2150,7 +2153,7 @@ module pgs_contact_pipe_full #(
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[113]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
@@ -2164,7 +2167,7 @@ module pgs_contact_pipe_full #(
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[114]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
@@ -2206,7 +2209,7 @@ module pgs_contact_pipe_full #(
     // pt1_cA_x = pt1_mul190 - pt1_mul191   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul190), .b(dl_pt1_mul191), .sub(1'b1),
         .out_valid(op_valid_nc[117]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
@@ -2248,7 +2251,7 @@ module pgs_contact_pipe_full #(
     // pt1_cA_y = pt1_mul193 - pt1_mul194   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b1),
         .out_valid(op_valid_nc[120]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
@@ -2290,7 +2293,7 @@ module pgs_contact_pipe_full #(
     // pt1_cA_z = pt1_mul196 - pt1_mul197   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul196), .b(dl_pt1_mul197), .sub(1'b1),
         .out_valid(op_valid_nc[123]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
@@ -2304,7 +2307,7 @@ module pgs_contact_pipe_full #(
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[124]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
@@ -2318,7 +2321,7 @@ module pgs_contact_pipe_full #(
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[125]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
@@ -2332,7 +2335,7 @@ module pgs_contact_pipe_full #(
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[126]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
@@ -2374,7 +2377,7 @@ module pgs_contact_pipe_full #(
     // pt1_cB_x = pt1_mul202 - pt1_mul203   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul202), .b(dl_pt1_mul203), .sub(1'b1),
         .out_valid(op_valid_nc[129]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
@@ -2416,7 +2419,7 @@ module pgs_contact_pipe_full #(
     // pt1_cB_y = pt1_mul205 - pt1_mul206   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul205), .b(dl_pt1_mul206), .sub(1'b1),
         .out_valid(op_valid_nc[132]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
@@ -2458,7 +2461,7 @@ module pgs_contact_pipe_full #(
     // pt1_cB_z = pt1_mul208 - pt1_mul209   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul208), .b(dl_pt1_mul209), .sub(1'b1),
         .out_valid(op_valid_nc[135]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
@@ -2500,7 +2503,7 @@ module pgs_contact_pipe_full #(
     // pt1_add213 = pt1_mul211 + pt1_mul212   (ready @60/60/60)
     logic [W-1:0] pt1_add213;
     logic [2:0] fl_pt1_add213;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add213 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add213 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul211), .b(dl_pt1_mul212), .sub(1'b0),
         .out_valid(op_valid_nc[138]), .y(pt1_add213), .flags(fl_pt1_add213)
     );
@@ -2528,7 +2531,7 @@ module pgs_contact_pipe_full #(
     // pt1_add215 = pt1_add213 + pt1_mul214   (ready @64/64/64)
     logic [W-1:0] pt1_add215;
     logic [2:0] fl_pt1_add215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add215 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add213), .b(dl_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[140]), .y(pt1_add215), .flags(fl_pt1_add215)
     );
@@ -2570,7 +2573,7 @@ module pgs_contact_pipe_full #(
     // pt1_add218 = pt1_mul216 + pt1_mul217   (ready @60/60/60)
     logic [W-1:0] pt1_add218;
     logic [2:0] fl_pt1_add218;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add218 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add218 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul216), .b(dl_pt1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[143]), .y(pt1_add218), .flags(fl_pt1_add218)
     );
@@ -2598,7 +2601,7 @@ module pgs_contact_pipe_full #(
     // pt1_add220 = pt1_add218 + pt1_mul219   (ready @64/64/64)
     logic [W-1:0] pt1_add220;
     logic [2:0] fl_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add218), .b(dl_pt1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[145]), .y(pt1_add220), .flags(fl_pt1_add220)
     );
@@ -2612,7 +2615,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub221 = pt1_add215 - pt1_add220   (ready @68/68/68)
     logic [W-1:0] pt1_sub221;
     logic [2:0] fl_pt1_sub221;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub221 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub221 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add215), .b(dl_pt1_add220), .sub(1'b1),
         .out_valid(op_valid_nc[146]), .y(pt1_sub221), .flags(fl_pt1_sub221)
     );
@@ -2654,7 +2657,7 @@ module pgs_contact_pipe_full #(
     // pt1_add224 = pt1_mul222 + pt1_mul223   (ready @60/60/60)
     logic [W-1:0] pt1_add224;
     logic [2:0] fl_pt1_add224;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add224 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add224 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul222), .b(dl_pt1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(pt1_add224), .flags(fl_pt1_add224)
     );
@@ -2682,7 +2685,7 @@ module pgs_contact_pipe_full #(
     // pt1_add226 = pt1_add224 + pt1_mul225   (ready @64/64/64)
     logic [W-1:0] pt1_add226;
     logic [2:0] fl_pt1_add226;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add226 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add226 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add224), .b(dl_pt1_mul225), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add226), .flags(fl_pt1_add226)
     );
@@ -2724,7 +2727,7 @@ module pgs_contact_pipe_full #(
     // pt1_add229 = pt1_mul227 + pt1_mul228   (ready @60/60/60)
     logic [W-1:0] pt1_add229;
     logic [2:0] fl_pt1_add229;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add229 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add229 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul227), .b(dl_pt1_mul228), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(pt1_add229), .flags(fl_pt1_add229)
     );
@@ -2752,7 +2755,7 @@ module pgs_contact_pipe_full #(
     // pt1_add231 = pt1_add229 + pt1_mul230   (ready @64/64/64)
     logic [W-1:0] pt1_add231;
     logic [2:0] fl_pt1_add231;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add231 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add231 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add229), .b(dl_pt1_mul230), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(pt1_add231), .flags(fl_pt1_add231)
     );
@@ -2766,7 +2769,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub232 = pt1_add226 - pt1_add231   (ready @68/68/68)
     logic [W-1:0] pt1_sub232;
     logic [2:0] fl_pt1_sub232;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub232 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub232 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add226), .b(dl_pt1_add231), .sub(1'b1),
         .out_valid(op_valid_nc[157]), .y(pt1_sub232), .flags(fl_pt1_sub232)
     );
@@ -2780,7 +2783,7 @@ module pgs_contact_pipe_full #(
     // pt1_vrel = pt1_sub221 + pt1_sub232   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub221), .b(dl_pt1_sub232), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
@@ -2794,7 +2797,7 @@ module pgs_contact_pipe_full #(
     // pt1_add234 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add234;
     logic [2:0] fl_pt1_add234;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add234 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add234 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[159]), .y(pt1_add234), .flags(fl_pt1_add234)
     );
@@ -2822,7 +2825,7 @@ module pgs_contact_pipe_full #(
     // pt1_add236 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add236;
     logic [2:0] fl_pt1_add236;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add236 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add236 (
         .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[161]), .y(pt1_add236), .flags(fl_pt1_add236)
     );
@@ -2847,7 +2850,7 @@ module pgs_contact_pipe_full #(
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
@@ -2896,7 +2899,7 @@ module pgs_contact_pipe_full #(
     // pt1_add242 = pt1_mul240 + pt1_mul241   (ready @18/18/18)
     logic [W-1:0] pt1_add242;
     logic [2:0] fl_pt1_add242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul240), .b(dl_pt1_mul241), .sub(1'b0),
         .out_valid(op_valid_nc[166]), .y(pt1_add242), .flags(fl_pt1_add242)
     );
@@ -2924,7 +2927,7 @@ module pgs_contact_pipe_full #(
     // pt1_angA_x = pt1_add242 + pt1_mul243   (ready @22/22/22)
     logic [W-1:0] pt1_angA_x;
     logic [2:0] fl_pt1_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add242), .b(dl_pt1_mul243), .sub(1'b0),
         .out_valid(op_valid_nc[168]), .y(pt1_angA_x), .flags(fl_pt1_angA_x)
     );
@@ -2966,7 +2969,7 @@ module pgs_contact_pipe_full #(
     // pt1_add247 = pt1_mul245 + pt1_mul246   (ready @18/18/18)
     logic [W-1:0] pt1_add247;
     logic [2:0] fl_pt1_add247;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add247 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add247 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul245), .b(dl_pt1_mul246), .sub(1'b0),
         .out_valid(op_valid_nc[171]), .y(pt1_add247), .flags(fl_pt1_add247)
     );
@@ -2994,7 +2997,7 @@ module pgs_contact_pipe_full #(
     // pt1_angA_y = pt1_add247 + pt1_mul248   (ready @22/22/22)
     logic [W-1:0] pt1_angA_y;
     logic [2:0] fl_pt1_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add247), .b(dl_pt1_mul248), .sub(1'b0),
         .out_valid(op_valid_nc[173]), .y(pt1_angA_y), .flags(fl_pt1_angA_y)
     );
@@ -3036,7 +3039,7 @@ module pgs_contact_pipe_full #(
     // pt1_add252 = pt1_mul250 + pt1_mul251   (ready @18/18/18)
     logic [W-1:0] pt1_add252;
     logic [2:0] fl_pt1_add252;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add252 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add252 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul250), .b(dl_pt1_mul251), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(pt1_add252), .flags(fl_pt1_add252)
     );
@@ -3064,7 +3067,7 @@ module pgs_contact_pipe_full #(
     // pt1_angA_z = pt1_add252 + pt1_mul253   (ready @22/22/22)
     logic [W-1:0] pt1_angA_z;
     logic [2:0] fl_pt1_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add252), .b(dl_pt1_mul253), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(pt1_angA_z), .flags(fl_pt1_angA_z)
     );
@@ -3106,7 +3109,7 @@ module pgs_contact_pipe_full #(
     // pt1_add257 = pt1_mul255 + pt1_mul256   (ready @18/18/18)
     logic [W-1:0] pt1_add257;
     logic [2:0] fl_pt1_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul255), .b(dl_pt1_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[181]), .y(pt1_add257), .flags(fl_pt1_add257)
     );
@@ -3134,7 +3137,7 @@ module pgs_contact_pipe_full #(
     // pt1_angB_x = pt1_add257 + pt1_mul258   (ready @22/22/22)
     logic [W-1:0] pt1_angB_x;
     logic [2:0] fl_pt1_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add257), .b(dl_pt1_mul258), .sub(1'b0),
         .out_valid(op_valid_nc[183]), .y(pt1_angB_x), .flags(fl_pt1_angB_x)
     );
@@ -3176,7 +3179,7 @@ module pgs_contact_pipe_full #(
     // pt1_add262 = pt1_mul260 + pt1_mul261   (ready @18/18/18)
     logic [W-1:0] pt1_add262;
     logic [2:0] fl_pt1_add262;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add262 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add262 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul260), .b(dl_pt1_mul261), .sub(1'b0),
         .out_valid(op_valid_nc[186]), .y(pt1_add262), .flags(fl_pt1_add262)
     );
@@ -3204,7 +3207,7 @@ module pgs_contact_pipe_full #(
     // pt1_angB_y = pt1_add262 + pt1_mul263   (ready @22/22/22)
     logic [W-1:0] pt1_angB_y;
     logic [2:0] fl_pt1_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add262), .b(dl_pt1_mul263), .sub(1'b0),
         .out_valid(op_valid_nc[188]), .y(pt1_angB_y), .flags(fl_pt1_angB_y)
     );
@@ -3246,7 +3249,7 @@ module pgs_contact_pipe_full #(
     // pt1_add267 = pt1_mul265 + pt1_mul266   (ready @18/18/18)
     logic [W-1:0] pt1_add267;
     logic [2:0] fl_pt1_add267;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add267 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add267 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul265), .b(dl_pt1_mul266), .sub(1'b0),
         .out_valid(op_valid_nc[191]), .y(pt1_add267), .flags(fl_pt1_add267)
     );
@@ -3274,7 +3277,7 @@ module pgs_contact_pipe_full #(
     // pt1_angB_z = pt1_add267 + pt1_mul268   (ready @22/22/22)
     logic [W-1:0] pt1_angB_z;
     logic [2:0] fl_pt1_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add267), .b(dl_pt1_mul268), .sub(1'b0),
         .out_valid(op_valid_nc[193]), .y(pt1_angB_z), .flags(fl_pt1_angB_z)
     );
@@ -3330,7 +3333,7 @@ module pgs_contact_pipe_full #(
     // pt1_add273 = pt0_vA_x + pt1_mul270   (ready @95/95/95)
     logic [W-1:0] pt1_add273;
     logic [2:0] fl_pt1_add273;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add273 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add273 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul270), .sub(1'b0),
         .out_valid(op_valid_nc[197]), .y(pt1_add273), .flags(fl_pt1_add273)
     );
@@ -3344,7 +3347,7 @@ module pgs_contact_pipe_full #(
     // pt1_add274 = pt0_vA_y + pt1_mul271   (ready @95/95/95)
     logic [W-1:0] pt1_add274;
     logic [2:0] fl_pt1_add274;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add274 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add274 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul271), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt1_add274), .flags(fl_pt1_add274)
     );
@@ -3358,7 +3361,7 @@ module pgs_contact_pipe_full #(
     // pt1_add275 = pt0_vA_z + pt1_mul272   (ready @95/95/95)
     logic [W-1:0] pt1_add275;
     logic [2:0] fl_pt1_add275;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add275 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add275 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul272), .sub(1'b0),
         .out_valid(op_valid_nc[199]), .y(pt1_add275), .flags(fl_pt1_add275)
     );
@@ -3435,7 +3438,7 @@ module pgs_contact_pipe_full #(
     // pt1_add282 = pt0_wA_x + pt1_mul279   (ready @95/95/95)
     logic [W-1:0] pt1_add282;
     logic [2:0] fl_pt1_add282;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add282 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add282 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul279), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt1_add282), .flags(fl_pt1_add282)
     );
@@ -3449,7 +3452,7 @@ module pgs_contact_pipe_full #(
     // pt1_add283 = pt0_wA_y + pt1_mul280   (ready @95/95/95)
     logic [W-1:0] pt1_add283;
     logic [2:0] fl_pt1_add283;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add283 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add283 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul280), .sub(1'b0),
         .out_valid(op_valid_nc[204]), .y(pt1_add283), .flags(fl_pt1_add283)
     );
@@ -3463,7 +3466,7 @@ module pgs_contact_pipe_full #(
     // pt1_add284 = pt0_wA_z + pt1_mul281   (ready @95/95/95)
     logic [W-1:0] pt1_add284;
     logic [2:0] fl_pt1_add284;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add284 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add284 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul281), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(pt1_add284), .flags(fl_pt1_add284)
     );
@@ -3540,7 +3543,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub291 = pt0_vB_x - pt1_mul288   (ready @95/95/95)
     logic [W-1:0] pt1_sub291;
     logic [2:0] fl_pt1_sub291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub291 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul288), .sub(1'b1),
         .out_valid(op_valid_nc[209]), .y(pt1_sub291), .flags(fl_pt1_sub291)
     );
@@ -3554,7 +3557,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub292 = pt0_vB_y - pt1_mul289   (ready @95/95/95)
     logic [W-1:0] pt1_sub292;
     logic [2:0] fl_pt1_sub292;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub292 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub292 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul289), .sub(1'b1),
         .out_valid(op_valid_nc[210]), .y(pt1_sub292), .flags(fl_pt1_sub292)
     );
@@ -3568,7 +3571,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub293 = pt0_vB_z - pt1_mul290   (ready @95/95/95)
     logic [W-1:0] pt1_sub293;
     logic [2:0] fl_pt1_sub293;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub293 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub293 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul290), .sub(1'b1),
         .out_valid(op_valid_nc[211]), .y(pt1_sub293), .flags(fl_pt1_sub293)
     );
@@ -3645,7 +3648,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub300 = pt0_wB_x - pt1_mul297   (ready @95/95/95)
     logic [W-1:0] pt1_sub300;
     logic [2:0] fl_pt1_sub300;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub300 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub300 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul297), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(pt1_sub300), .flags(fl_pt1_sub300)
     );
@@ -3659,7 +3662,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub301 = pt0_wB_y - pt1_mul298   (ready @95/95/95)
     logic [W-1:0] pt1_sub301;
     logic [2:0] fl_pt1_sub301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub301 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul298), .sub(1'b1),
         .out_valid(op_valid_nc[216]), .y(pt1_sub301), .flags(fl_pt1_sub301)
     );
@@ -3673,7 +3676,7 @@ module pgs_contact_pipe_full #(
     // pt1_sub302 = pt0_wB_z - pt1_mul299   (ready @95/95/95)
     logic [W-1:0] pt1_sub302;
     logic [2:0] fl_pt1_sub302;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub302 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub302 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul299), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(pt1_sub302), .flags(fl_pt1_sub302)
     );
@@ -3715,7 +3718,7 @@ module pgs_contact_pipe_full #(
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[218]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
@@ -3729,7 +3732,7 @@ module pgs_contact_pipe_full #(
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[219]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
@@ -3743,7 +3746,7 @@ module pgs_contact_pipe_full #(
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[220]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
@@ -3785,7 +3788,7 @@ module pgs_contact_pipe_full #(
     // pt2_cA_x = pt2_mul310 - pt2_mul311   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul310), .b(dl_pt2_mul311), .sub(1'b1),
         .out_valid(op_valid_nc[223]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
@@ -3827,7 +3830,7 @@ module pgs_contact_pipe_full #(
     // pt2_cA_y = pt2_mul313 - pt2_mul314   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul313), .b(dl_pt2_mul314), .sub(1'b1),
         .out_valid(op_valid_nc[226]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
@@ -3869,7 +3872,7 @@ module pgs_contact_pipe_full #(
     // pt2_cA_z = pt2_mul316 - pt2_mul317   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul316), .b(dl_pt2_mul317), .sub(1'b1),
         .out_valid(op_valid_nc[229]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
@@ -3883,7 +3886,7 @@ module pgs_contact_pipe_full #(
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[230]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
@@ -3897,7 +3900,7 @@ module pgs_contact_pipe_full #(
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[231]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
@@ -3911,7 +3914,7 @@ module pgs_contact_pipe_full #(
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[232]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
@@ -3953,7 +3956,7 @@ module pgs_contact_pipe_full #(
     // pt2_cB_x = pt2_mul322 - pt2_mul323   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul322), .b(dl_pt2_mul323), .sub(1'b1),
         .out_valid(op_valid_nc[235]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
@@ -3995,7 +3998,7 @@ module pgs_contact_pipe_full #(
     // pt2_cB_y = pt2_mul325 - pt2_mul326   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul325), .b(dl_pt2_mul326), .sub(1'b1),
         .out_valid(op_valid_nc[238]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
@@ -4037,7 +4040,7 @@ module pgs_contact_pipe_full #(
     // pt2_cB_z = pt2_mul328 - pt2_mul329   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul328), .b(dl_pt2_mul329), .sub(1'b1),
         .out_valid(op_valid_nc[241]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
@@ -4079,7 +4082,7 @@ module pgs_contact_pipe_full #(
     // pt2_add333 = pt2_mul331 + pt2_mul332   (ready @102/102/102)
     logic [W-1:0] pt2_add333;
     logic [2:0] fl_pt2_add333;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add333 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add333 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul331), .b(dl_pt2_mul332), .sub(1'b0),
         .out_valid(op_valid_nc[244]), .y(pt2_add333), .flags(fl_pt2_add333)
     );
@@ -4107,7 +4110,7 @@ module pgs_contact_pipe_full #(
     // pt2_add335 = pt2_add333 + pt2_mul334   (ready @106/106/106)
     logic [W-1:0] pt2_add335;
     logic [2:0] fl_pt2_add335;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add335 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add335 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add333), .b(dl_pt2_mul334), .sub(1'b0),
         .out_valid(op_valid_nc[246]), .y(pt2_add335), .flags(fl_pt2_add335)
     );
@@ -4149,7 +4152,7 @@ module pgs_contact_pipe_full #(
     // pt2_add338 = pt2_mul336 + pt2_mul337   (ready @102/102/102)
     logic [W-1:0] pt2_add338;
     logic [2:0] fl_pt2_add338;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add338 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add338 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul336), .b(dl_pt2_mul337), .sub(1'b0),
         .out_valid(op_valid_nc[249]), .y(pt2_add338), .flags(fl_pt2_add338)
     );
@@ -4177,7 +4180,7 @@ module pgs_contact_pipe_full #(
     // pt2_add340 = pt2_add338 + pt2_mul339   (ready @106/106/106)
     logic [W-1:0] pt2_add340;
     logic [2:0] fl_pt2_add340;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add340 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add340 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add338), .b(dl_pt2_mul339), .sub(1'b0),
         .out_valid(op_valid_nc[251]), .y(pt2_add340), .flags(fl_pt2_add340)
     );
@@ -4191,7 +4194,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub341 = pt2_add335 - pt2_add340   (ready @110/110/110)
     logic [W-1:0] pt2_sub341;
     logic [2:0] fl_pt2_sub341;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub341 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub341 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add335), .b(dl_pt2_add340), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt2_sub341), .flags(fl_pt2_sub341)
     );
@@ -4233,7 +4236,7 @@ module pgs_contact_pipe_full #(
     // pt2_add344 = pt2_mul342 + pt2_mul343   (ready @102/102/102)
     logic [W-1:0] pt2_add344;
     logic [2:0] fl_pt2_add344;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add344 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add344 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul342), .b(dl_pt2_mul343), .sub(1'b0),
         .out_valid(op_valid_nc[255]), .y(pt2_add344), .flags(fl_pt2_add344)
     );
@@ -4261,7 +4264,7 @@ module pgs_contact_pipe_full #(
     // pt2_add346 = pt2_add344 + pt2_mul345   (ready @106/106/106)
     logic [W-1:0] pt2_add346;
     logic [2:0] fl_pt2_add346;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add346 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add346 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add344), .b(dl_pt2_mul345), .sub(1'b0),
         .out_valid(op_valid_nc[257]), .y(pt2_add346), .flags(fl_pt2_add346)
     );
@@ -4303,7 +4306,7 @@ module pgs_contact_pipe_full #(
     // pt2_add349 = pt2_mul347 + pt2_mul348   (ready @102/102/102)
     logic [W-1:0] pt2_add349;
     logic [2:0] fl_pt2_add349;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add349 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add349 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul347), .b(dl_pt2_mul348), .sub(1'b0),
         .out_valid(op_valid_nc[260]), .y(pt2_add349), .flags(fl_pt2_add349)
     );
@@ -4331,7 +4334,7 @@ module pgs_contact_pipe_full #(
     // pt2_add351 = pt2_add349 + pt2_mul350   (ready @106/106/106)
     logic [W-1:0] pt2_add351;
     logic [2:0] fl_pt2_add351;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add351 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add351 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add349), .b(dl_pt2_mul350), .sub(1'b0),
         .out_valid(op_valid_nc[262]), .y(pt2_add351), .flags(fl_pt2_add351)
     );
@@ -4345,7 +4348,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub352 = pt2_add346 - pt2_add351   (ready @110/110/110)
     logic [W-1:0] pt2_sub352;
     logic [2:0] fl_pt2_sub352;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub352 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub352 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add346), .b(dl_pt2_add351), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt2_sub352), .flags(fl_pt2_sub352)
     );
@@ -4359,7 +4362,7 @@ module pgs_contact_pipe_full #(
     // pt2_vrel = pt2_sub341 + pt2_sub352   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub341), .b(dl_pt2_sub352), .sub(1'b0),
         .out_valid(op_valid_nc[264]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
@@ -4373,7 +4376,7 @@ module pgs_contact_pipe_full #(
     // pt2_add354 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add354;
     logic [2:0] fl_pt2_add354;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add354 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add354 (
         .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[265]), .y(pt2_add354), .flags(fl_pt2_add354)
     );
@@ -4401,7 +4404,7 @@ module pgs_contact_pipe_full #(
     // pt2_add356 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add356;
     logic [2:0] fl_pt2_add356;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add356 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add356 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[267]), .y(pt2_add356), .flags(fl_pt2_add356)
     );
@@ -4426,7 +4429,7 @@ module pgs_contact_pipe_full #(
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
@@ -4475,7 +4478,7 @@ module pgs_contact_pipe_full #(
     // pt2_add362 = pt2_mul360 + pt2_mul361   (ready @18/18/18)
     logic [W-1:0] pt2_add362;
     logic [2:0] fl_pt2_add362;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add362 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add362 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul360), .b(dl_pt2_mul361), .sub(1'b0),
         .out_valid(op_valid_nc[272]), .y(pt2_add362), .flags(fl_pt2_add362)
     );
@@ -4503,7 +4506,7 @@ module pgs_contact_pipe_full #(
     // pt2_angA_x = pt2_add362 + pt2_mul363   (ready @22/22/22)
     logic [W-1:0] pt2_angA_x;
     logic [2:0] fl_pt2_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add362), .b(dl_pt2_mul363), .sub(1'b0),
         .out_valid(op_valid_nc[274]), .y(pt2_angA_x), .flags(fl_pt2_angA_x)
     );
@@ -4545,7 +4548,7 @@ module pgs_contact_pipe_full #(
     // pt2_add367 = pt2_mul365 + pt2_mul366   (ready @18/18/18)
     logic [W-1:0] pt2_add367;
     logic [2:0] fl_pt2_add367;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add367 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add367 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul365), .b(dl_pt2_mul366), .sub(1'b0),
         .out_valid(op_valid_nc[277]), .y(pt2_add367), .flags(fl_pt2_add367)
     );
@@ -4573,7 +4576,7 @@ module pgs_contact_pipe_full #(
     // pt2_angA_y = pt2_add367 + pt2_mul368   (ready @22/22/22)
     logic [W-1:0] pt2_angA_y;
     logic [2:0] fl_pt2_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add367), .b(dl_pt2_mul368), .sub(1'b0),
         .out_valid(op_valid_nc[279]), .y(pt2_angA_y), .flags(fl_pt2_angA_y)
     );
@@ -4615,7 +4618,7 @@ module pgs_contact_pipe_full #(
     // pt2_add372 = pt2_mul370 + pt2_mul371   (ready @18/18/18)
     logic [W-1:0] pt2_add372;
     logic [2:0] fl_pt2_add372;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add372 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add372 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul370), .b(dl_pt2_mul371), .sub(1'b0),
         .out_valid(op_valid_nc[282]), .y(pt2_add372), .flags(fl_pt2_add372)
     );
@@ -4643,7 +4646,7 @@ module pgs_contact_pipe_full #(
     // pt2_angA_z = pt2_add372 + pt2_mul373   (ready @22/22/22)
     logic [W-1:0] pt2_angA_z;
     logic [2:0] fl_pt2_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add372), .b(dl_pt2_mul373), .sub(1'b0),
         .out_valid(op_valid_nc[284]), .y(pt2_angA_z), .flags(fl_pt2_angA_z)
     );
@@ -4685,7 +4688,7 @@ module pgs_contact_pipe_full #(
     // pt2_add377 = pt2_mul375 + pt2_mul376   (ready @18/18/18)
     logic [W-1:0] pt2_add377;
     logic [2:0] fl_pt2_add377;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add377 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add377 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul375), .b(dl_pt2_mul376), .sub(1'b0),
         .out_valid(op_valid_nc[287]), .y(pt2_add377), .flags(fl_pt2_add377)
     );
@@ -4713,7 +4716,7 @@ module pgs_contact_pipe_full #(
     // pt2_angB_x = pt2_add377 + pt2_mul378   (ready @22/22/22)
     logic [W-1:0] pt2_angB_x;
     logic [2:0] fl_pt2_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add377), .b(dl_pt2_mul378), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(pt2_angB_x), .flags(fl_pt2_angB_x)
     );
@@ -4755,7 +4758,7 @@ module pgs_contact_pipe_full #(
     // pt2_add382 = pt2_mul380 + pt2_mul381   (ready @18/18/18)
     logic [W-1:0] pt2_add382;
     logic [2:0] fl_pt2_add382;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add382 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add382 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul380), .b(dl_pt2_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[292]), .y(pt2_add382), .flags(fl_pt2_add382)
     );
@@ -4783,7 +4786,7 @@ module pgs_contact_pipe_full #(
     // pt2_angB_y = pt2_add382 + pt2_mul383   (ready @22/22/22)
     logic [W-1:0] pt2_angB_y;
     logic [2:0] fl_pt2_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add382), .b(dl_pt2_mul383), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt2_angB_y), .flags(fl_pt2_angB_y)
     );
@@ -4825,7 +4828,7 @@ module pgs_contact_pipe_full #(
     // pt2_add387 = pt2_mul385 + pt2_mul386   (ready @18/18/18)
     logic [W-1:0] pt2_add387;
     logic [2:0] fl_pt2_add387;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add387 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add387 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul385), .b(dl_pt2_mul386), .sub(1'b0),
         .out_valid(op_valid_nc[297]), .y(pt2_add387), .flags(fl_pt2_add387)
     );
@@ -4853,7 +4856,7 @@ module pgs_contact_pipe_full #(
     // pt2_angB_z = pt2_add387 + pt2_mul388   (ready @22/22/22)
     logic [W-1:0] pt2_angB_z;
     logic [2:0] fl_pt2_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add387), .b(dl_pt2_mul388), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt2_angB_z), .flags(fl_pt2_angB_z)
     );
@@ -4909,7 +4912,7 @@ module pgs_contact_pipe_full #(
     // pt2_add393 = pt1_vA_x + pt2_mul390   (ready @137/137/137)
     logic [W-1:0] pt2_add393;
     logic [2:0] fl_pt2_add393;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add393 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add393 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul390), .sub(1'b0),
         .out_valid(op_valid_nc[303]), .y(pt2_add393), .flags(fl_pt2_add393)
     );
@@ -4923,7 +4926,7 @@ module pgs_contact_pipe_full #(
     // pt2_add394 = pt1_vA_y + pt2_mul391   (ready @137/137/137)
     logic [W-1:0] pt2_add394;
     logic [2:0] fl_pt2_add394;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add394 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add394 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul391), .sub(1'b0),
         .out_valid(op_valid_nc[304]), .y(pt2_add394), .flags(fl_pt2_add394)
     );
@@ -4937,7 +4940,7 @@ module pgs_contact_pipe_full #(
     // pt2_add395 = pt1_vA_z + pt2_mul392   (ready @137/137/137)
     logic [W-1:0] pt2_add395;
     logic [2:0] fl_pt2_add395;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add395 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add395 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul392), .sub(1'b0),
         .out_valid(op_valid_nc[305]), .y(pt2_add395), .flags(fl_pt2_add395)
     );
@@ -5014,7 +5017,7 @@ module pgs_contact_pipe_full #(
     // pt2_add402 = pt1_wA_x + pt2_mul399   (ready @137/137/137)
     logic [W-1:0] pt2_add402;
     logic [2:0] fl_pt2_add402;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add402 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add402 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul399), .sub(1'b0),
         .out_valid(op_valid_nc[309]), .y(pt2_add402), .flags(fl_pt2_add402)
     );
@@ -5028,7 +5031,7 @@ module pgs_contact_pipe_full #(
     // pt2_add403 = pt1_wA_y + pt2_mul400   (ready @137/137/137)
     logic [W-1:0] pt2_add403;
     logic [2:0] fl_pt2_add403;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add403 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add403 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul400), .sub(1'b0),
         .out_valid(op_valid_nc[310]), .y(pt2_add403), .flags(fl_pt2_add403)
     );
@@ -5042,7 +5045,7 @@ module pgs_contact_pipe_full #(
     // pt2_add404 = pt1_wA_z + pt2_mul401   (ready @137/137/137)
     logic [W-1:0] pt2_add404;
     logic [2:0] fl_pt2_add404;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add404 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add404 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul401), .sub(1'b0),
         .out_valid(op_valid_nc[311]), .y(pt2_add404), .flags(fl_pt2_add404)
     );
@@ -5119,7 +5122,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub411 = pt1_vB_x - pt2_mul408   (ready @137/137/137)
     logic [W-1:0] pt2_sub411;
     logic [2:0] fl_pt2_sub411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub411 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul408), .sub(1'b1),
         .out_valid(op_valid_nc[315]), .y(pt2_sub411), .flags(fl_pt2_sub411)
     );
@@ -5133,7 +5136,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub412 = pt1_vB_y - pt2_mul409   (ready @137/137/137)
     logic [W-1:0] pt2_sub412;
     logic [2:0] fl_pt2_sub412;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub412 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub412 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul409), .sub(1'b1),
         .out_valid(op_valid_nc[316]), .y(pt2_sub412), .flags(fl_pt2_sub412)
     );
@@ -5147,7 +5150,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub413 = pt1_vB_z - pt2_mul410   (ready @137/137/137)
     logic [W-1:0] pt2_sub413;
     logic [2:0] fl_pt2_sub413;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub413 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub413 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul410), .sub(1'b1),
         .out_valid(op_valid_nc[317]), .y(pt2_sub413), .flags(fl_pt2_sub413)
     );
@@ -5224,7 +5227,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub420 = pt1_wB_x - pt2_mul417   (ready @137/137/137)
     logic [W-1:0] pt2_sub420;
     logic [2:0] fl_pt2_sub420;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub420 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub420 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul417), .sub(1'b1),
         .out_valid(op_valid_nc[321]), .y(pt2_sub420), .flags(fl_pt2_sub420)
     );
@@ -5238,7 +5241,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub421 = pt1_wB_y - pt2_mul418   (ready @137/137/137)
     logic [W-1:0] pt2_sub421;
     logic [2:0] fl_pt2_sub421;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub421 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub421 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul418), .sub(1'b1),
         .out_valid(op_valid_nc[322]), .y(pt2_sub421), .flags(fl_pt2_sub421)
     );
@@ -5252,7 +5255,7 @@ module pgs_contact_pipe_full #(
     // pt2_sub422 = pt1_wB_z - pt2_mul419   (ready @137/137/137)
     logic [W-1:0] pt2_sub422;
     logic [2:0] fl_pt2_sub422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub422 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul419), .sub(1'b1),
         .out_valid(op_valid_nc[323]), .y(pt2_sub422), .flags(fl_pt2_sub422)
     );
@@ -5294,7 +5297,7 @@ module pgs_contact_pipe_full #(
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[324]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
@@ -5308,7 +5311,7 @@ module pgs_contact_pipe_full #(
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
@@ -5322,7 +5325,7 @@ module pgs_contact_pipe_full #(
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
@@ -5364,7 +5367,7 @@ module pgs_contact_pipe_full #(
     // pt3_cA_x = pt3_mul430 - pt3_mul431   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul430), .b(dl_pt3_mul431), .sub(1'b1),
         .out_valid(op_valid_nc[329]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
@@ -5406,7 +5409,7 @@ module pgs_contact_pipe_full #(
     // pt3_cA_y = pt3_mul433 - pt3_mul434   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul433), .b(dl_pt3_mul434), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
@@ -5448,7 +5451,7 @@ module pgs_contact_pipe_full #(
     // pt3_cA_z = pt3_mul436 - pt3_mul437   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul436), .b(dl_pt3_mul437), .sub(1'b1),
         .out_valid(op_valid_nc[335]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
@@ -5462,7 +5465,7 @@ module pgs_contact_pipe_full #(
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[336]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
@@ -5476,7 +5479,7 @@ module pgs_contact_pipe_full #(
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[337]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
@@ -5490,7 +5493,7 @@ module pgs_contact_pipe_full #(
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[338]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
@@ -5532,7 +5535,7 @@ module pgs_contact_pipe_full #(
     // pt3_cB_x = pt3_mul442 - pt3_mul443   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul442), .b(dl_pt3_mul443), .sub(1'b1),
         .out_valid(op_valid_nc[341]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
@@ -5574,7 +5577,7 @@ module pgs_contact_pipe_full #(
     // pt3_cB_y = pt3_mul445 - pt3_mul446   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul445), .b(dl_pt3_mul446), .sub(1'b1),
         .out_valid(op_valid_nc[344]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
@@ -5616,7 +5619,7 @@ module pgs_contact_pipe_full #(
     // pt3_cB_z = pt3_mul448 - pt3_mul449   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul448), .b(dl_pt3_mul449), .sub(1'b1),
         .out_valid(op_valid_nc[347]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
@@ -5658,7 +5661,7 @@ module pgs_contact_pipe_full #(
     // pt3_add453 = pt3_mul451 + pt3_mul452   (ready @144/144/144)
     logic [W-1:0] pt3_add453;
     logic [2:0] fl_pt3_add453;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add453 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add453 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul451), .b(dl_pt3_mul452), .sub(1'b0),
         .out_valid(op_valid_nc[350]), .y(pt3_add453), .flags(fl_pt3_add453)
     );
@@ -5686,7 +5689,7 @@ module pgs_contact_pipe_full #(
     // pt3_add455 = pt3_add453 + pt3_mul454   (ready @148/148/148)
     logic [W-1:0] pt3_add455;
     logic [2:0] fl_pt3_add455;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add455 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add455 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add453), .b(dl_pt3_mul454), .sub(1'b0),
         .out_valid(op_valid_nc[352]), .y(pt3_add455), .flags(fl_pt3_add455)
     );
@@ -5728,7 +5731,7 @@ module pgs_contact_pipe_full #(
     // pt3_add458 = pt3_mul456 + pt3_mul457   (ready @144/144/144)
     logic [W-1:0] pt3_add458;
     logic [2:0] fl_pt3_add458;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add458 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add458 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul456), .b(dl_pt3_mul457), .sub(1'b0),
         .out_valid(op_valid_nc[355]), .y(pt3_add458), .flags(fl_pt3_add458)
     );
@@ -5756,7 +5759,7 @@ module pgs_contact_pipe_full #(
     // pt3_add460 = pt3_add458 + pt3_mul459   (ready @148/148/148)
     logic [W-1:0] pt3_add460;
     logic [2:0] fl_pt3_add460;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add460 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add460 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add458), .b(dl_pt3_mul459), .sub(1'b0),
         .out_valid(op_valid_nc[357]), .y(pt3_add460), .flags(fl_pt3_add460)
     );
@@ -5770,7 +5773,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub461 = pt3_add455 - pt3_add460   (ready @152/152/152)
     logic [W-1:0] pt3_sub461;
     logic [2:0] fl_pt3_sub461;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub461 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub461 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add455), .b(dl_pt3_add460), .sub(1'b1),
         .out_valid(op_valid_nc[358]), .y(pt3_sub461), .flags(fl_pt3_sub461)
     );
@@ -5812,7 +5815,7 @@ module pgs_contact_pipe_full #(
     // pt3_add464 = pt3_mul462 + pt3_mul463   (ready @144/144/144)
     logic [W-1:0] pt3_add464;
     logic [2:0] fl_pt3_add464;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add464 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add464 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul462), .b(dl_pt3_mul463), .sub(1'b0),
         .out_valid(op_valid_nc[361]), .y(pt3_add464), .flags(fl_pt3_add464)
     );
@@ -5840,7 +5843,7 @@ module pgs_contact_pipe_full #(
     // pt3_add466 = pt3_add464 + pt3_mul465   (ready @148/148/148)
     logic [W-1:0] pt3_add466;
     logic [2:0] fl_pt3_add466;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add466 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add466 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add464), .b(dl_pt3_mul465), .sub(1'b0),
         .out_valid(op_valid_nc[363]), .y(pt3_add466), .flags(fl_pt3_add466)
     );
@@ -5882,7 +5885,7 @@ module pgs_contact_pipe_full #(
     // pt3_add469 = pt3_mul467 + pt3_mul468   (ready @144/144/144)
     logic [W-1:0] pt3_add469;
     logic [2:0] fl_pt3_add469;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add469 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add469 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul467), .b(dl_pt3_mul468), .sub(1'b0),
         .out_valid(op_valid_nc[366]), .y(pt3_add469), .flags(fl_pt3_add469)
     );
@@ -5910,7 +5913,7 @@ module pgs_contact_pipe_full #(
     // pt3_add471 = pt3_add469 + pt3_mul470   (ready @148/148/148)
     logic [W-1:0] pt3_add471;
     logic [2:0] fl_pt3_add471;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add471 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add471 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add469), .b(dl_pt3_mul470), .sub(1'b0),
         .out_valid(op_valid_nc[368]), .y(pt3_add471), .flags(fl_pt3_add471)
     );
@@ -5924,7 +5927,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub472 = pt3_add466 - pt3_add471   (ready @152/152/152)
     logic [W-1:0] pt3_sub472;
     logic [2:0] fl_pt3_sub472;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub472 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub472 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add466), .b(dl_pt3_add471), .sub(1'b1),
         .out_valid(op_valid_nc[369]), .y(pt3_sub472), .flags(fl_pt3_sub472)
     );
@@ -5938,7 +5941,7 @@ module pgs_contact_pipe_full #(
     // pt3_vrel = pt3_sub461 + pt3_sub472   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub461), .b(dl_pt3_sub472), .sub(1'b0),
         .out_valid(op_valid_nc[370]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
@@ -5952,7 +5955,7 @@ module pgs_contact_pipe_full #(
     // pt3_add474 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add474;
     logic [2:0] fl_pt3_add474;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add474 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add474 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
         .out_valid(op_valid_nc[371]), .y(pt3_add474), .flags(fl_pt3_add474)
     );
@@ -5980,7 +5983,7 @@ module pgs_contact_pipe_full #(
     // pt3_add476 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add476;
     logic [2:0] fl_pt3_add476;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add476 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add476 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[373]), .y(pt3_add476), .flags(fl_pt3_add476)
     );
@@ -6005,7 +6008,7 @@ module pgs_contact_pipe_full #(
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[375]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
@@ -6054,7 +6057,7 @@ module pgs_contact_pipe_full #(
     // pt3_add482 = pt3_mul480 + pt3_mul481   (ready @18/18/18)
     logic [W-1:0] pt3_add482;
     logic [2:0] fl_pt3_add482;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add482 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add482 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul480), .b(dl_pt3_mul481), .sub(1'b0),
         .out_valid(op_valid_nc[378]), .y(pt3_add482), .flags(fl_pt3_add482)
     );
@@ -6082,7 +6085,7 @@ module pgs_contact_pipe_full #(
     // pt3_angA_x = pt3_add482 + pt3_mul483   (ready @22/22/22)
     logic [W-1:0] pt3_angA_x;
     logic [2:0] fl_pt3_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add482), .b(dl_pt3_mul483), .sub(1'b0),
         .out_valid(op_valid_nc[380]), .y(pt3_angA_x), .flags(fl_pt3_angA_x)
     );
@@ -6124,7 +6127,7 @@ module pgs_contact_pipe_full #(
     // pt3_add487 = pt3_mul485 + pt3_mul486   (ready @18/18/18)
     logic [W-1:0] pt3_add487;
     logic [2:0] fl_pt3_add487;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add487 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add487 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul485), .b(dl_pt3_mul486), .sub(1'b0),
         .out_valid(op_valid_nc[383]), .y(pt3_add487), .flags(fl_pt3_add487)
     );
@@ -6152,7 +6155,7 @@ module pgs_contact_pipe_full #(
     // pt3_angA_y = pt3_add487 + pt3_mul488   (ready @22/22/22)
     logic [W-1:0] pt3_angA_y;
     logic [2:0] fl_pt3_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add487), .b(dl_pt3_mul488), .sub(1'b0),
         .out_valid(op_valid_nc[385]), .y(pt3_angA_y), .flags(fl_pt3_angA_y)
     );
@@ -6194,7 +6197,7 @@ module pgs_contact_pipe_full #(
     // pt3_add492 = pt3_mul490 + pt3_mul491   (ready @18/18/18)
     logic [W-1:0] pt3_add492;
     logic [2:0] fl_pt3_add492;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add492 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add492 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul490), .b(dl_pt3_mul491), .sub(1'b0),
         .out_valid(op_valid_nc[388]), .y(pt3_add492), .flags(fl_pt3_add492)
     );
@@ -6222,7 +6225,7 @@ module pgs_contact_pipe_full #(
     // pt3_angA_z = pt3_add492 + pt3_mul493   (ready @22/22/22)
     logic [W-1:0] pt3_angA_z;
     logic [2:0] fl_pt3_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add492), .b(dl_pt3_mul493), .sub(1'b0),
         .out_valid(op_valid_nc[390]), .y(pt3_angA_z), .flags(fl_pt3_angA_z)
     );
@@ -6264,7 +6267,7 @@ module pgs_contact_pipe_full #(
     // pt3_add497 = pt3_mul495 + pt3_mul496   (ready @18/18/18)
     logic [W-1:0] pt3_add497;
     logic [2:0] fl_pt3_add497;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add497 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add497 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul495), .b(dl_pt3_mul496), .sub(1'b0),
         .out_valid(op_valid_nc[393]), .y(pt3_add497), .flags(fl_pt3_add497)
     );
@@ -6292,7 +6295,7 @@ module pgs_contact_pipe_full #(
     // pt3_angB_x = pt3_add497 + pt3_mul498   (ready @22/22/22)
     logic [W-1:0] pt3_angB_x;
     logic [2:0] fl_pt3_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add497), .b(dl_pt3_mul498), .sub(1'b0),
         .out_valid(op_valid_nc[395]), .y(pt3_angB_x), .flags(fl_pt3_angB_x)
     );
@@ -6334,7 +6337,7 @@ module pgs_contact_pipe_full #(
     // pt3_add502 = pt3_mul500 + pt3_mul501   (ready @18/18/18)
     logic [W-1:0] pt3_add502;
     logic [2:0] fl_pt3_add502;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add502 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add502 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul500), .b(dl_pt3_mul501), .sub(1'b0),
         .out_valid(op_valid_nc[398]), .y(pt3_add502), .flags(fl_pt3_add502)
     );
@@ -6362,7 +6365,7 @@ module pgs_contact_pipe_full #(
     // pt3_angB_y = pt3_add502 + pt3_mul503   (ready @22/22/22)
     logic [W-1:0] pt3_angB_y;
     logic [2:0] fl_pt3_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add502), .b(dl_pt3_mul503), .sub(1'b0),
         .out_valid(op_valid_nc[400]), .y(pt3_angB_y), .flags(fl_pt3_angB_y)
     );
@@ -6404,7 +6407,7 @@ module pgs_contact_pipe_full #(
     // pt3_add507 = pt3_mul505 + pt3_mul506   (ready @18/18/18)
     logic [W-1:0] pt3_add507;
     logic [2:0] fl_pt3_add507;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add507 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add507 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul505), .b(dl_pt3_mul506), .sub(1'b0),
         .out_valid(op_valid_nc[403]), .y(pt3_add507), .flags(fl_pt3_add507)
     );
@@ -6432,7 +6435,7 @@ module pgs_contact_pipe_full #(
     // pt3_angB_z = pt3_add507 + pt3_mul508   (ready @22/22/22)
     logic [W-1:0] pt3_angB_z;
     logic [2:0] fl_pt3_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add507), .b(dl_pt3_mul508), .sub(1'b0),
         .out_valid(op_valid_nc[405]), .y(pt3_angB_z), .flags(fl_pt3_angB_z)
     );
@@ -6488,7 +6491,7 @@ module pgs_contact_pipe_full #(
     // pt3_add513 = pt2_vA_x + pt3_mul510   (ready @179/179/179)
     logic [W-1:0] pt3_add513;
     logic [2:0] fl_pt3_add513;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add513 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add513 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul510), .sub(1'b0),
         .out_valid(op_valid_nc[409]), .y(pt3_add513), .flags(fl_pt3_add513)
     );
@@ -6502,7 +6505,7 @@ module pgs_contact_pipe_full #(
     // pt3_add514 = pt2_vA_y + pt3_mul511   (ready @179/179/179)
     logic [W-1:0] pt3_add514;
     logic [2:0] fl_pt3_add514;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add514 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add514 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul511), .sub(1'b0),
         .out_valid(op_valid_nc[410]), .y(pt3_add514), .flags(fl_pt3_add514)
     );
@@ -6516,7 +6519,7 @@ module pgs_contact_pipe_full #(
     // pt3_add515 = pt2_vA_z + pt3_mul512   (ready @179/179/179)
     logic [W-1:0] pt3_add515;
     logic [2:0] fl_pt3_add515;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add515 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add515 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul512), .sub(1'b0),
         .out_valid(op_valid_nc[411]), .y(pt3_add515), .flags(fl_pt3_add515)
     );
@@ -6593,7 +6596,7 @@ module pgs_contact_pipe_full #(
     // pt3_add522 = pt2_wA_x + pt3_mul519   (ready @179/179/179)
     logic [W-1:0] pt3_add522;
     logic [2:0] fl_pt3_add522;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add522 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add522 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul519), .sub(1'b0),
         .out_valid(op_valid_nc[415]), .y(pt3_add522), .flags(fl_pt3_add522)
     );
@@ -6607,7 +6610,7 @@ module pgs_contact_pipe_full #(
     // pt3_add523 = pt2_wA_y + pt3_mul520   (ready @179/179/179)
     logic [W-1:0] pt3_add523;
     logic [2:0] fl_pt3_add523;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add523 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add523 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul520), .sub(1'b0),
         .out_valid(op_valid_nc[416]), .y(pt3_add523), .flags(fl_pt3_add523)
     );
@@ -6621,7 +6624,7 @@ module pgs_contact_pipe_full #(
     // pt3_add524 = pt2_wA_z + pt3_mul521   (ready @179/179/179)
     logic [W-1:0] pt3_add524;
     logic [2:0] fl_pt3_add524;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add524 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add524 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul521), .sub(1'b0),
         .out_valid(op_valid_nc[417]), .y(pt3_add524), .flags(fl_pt3_add524)
     );
@@ -6698,7 +6701,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub531 = pt2_vB_x - pt3_mul528   (ready @179/179/179)
     logic [W-1:0] pt3_sub531;
     logic [2:0] fl_pt3_sub531;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub531 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub531 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul528), .sub(1'b1),
         .out_valid(op_valid_nc[421]), .y(pt3_sub531), .flags(fl_pt3_sub531)
     );
@@ -6712,7 +6715,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub532 = pt2_vB_y - pt3_mul529   (ready @179/179/179)
     logic [W-1:0] pt3_sub532;
     logic [2:0] fl_pt3_sub532;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub532 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub532 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul529), .sub(1'b1),
         .out_valid(op_valid_nc[422]), .y(pt3_sub532), .flags(fl_pt3_sub532)
     );
@@ -6726,7 +6729,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub533 = pt2_vB_z - pt3_mul530   (ready @179/179/179)
     logic [W-1:0] pt3_sub533;
     logic [2:0] fl_pt3_sub533;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub533 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub533 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul530), .sub(1'b1),
         .out_valid(op_valid_nc[423]), .y(pt3_sub533), .flags(fl_pt3_sub533)
     );
@@ -6803,7 +6806,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub540 = pt2_wB_x - pt3_mul537   (ready @179/179/179)
     logic [W-1:0] pt3_sub540;
     logic [2:0] fl_pt3_sub540;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub540 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub540 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul537), .sub(1'b1),
         .out_valid(op_valid_nc[427]), .y(pt3_sub540), .flags(fl_pt3_sub540)
     );
@@ -6817,7 +6820,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub541 = pt2_wB_y - pt3_mul538   (ready @179/179/179)
     logic [W-1:0] pt3_sub541;
     logic [2:0] fl_pt3_sub541;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub541 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub541 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul538), .sub(1'b1),
         .out_valid(op_valid_nc[428]), .y(pt3_sub541), .flags(fl_pt3_sub541)
     );
@@ -6831,7 +6834,7 @@ module pgs_contact_pipe_full #(
     // pt3_sub542 = pt2_wB_z - pt3_mul539   (ready @179/179/179)
     logic [W-1:0] pt3_sub542;
     logic [2:0] fl_pt3_sub542;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub542 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub542 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul539), .sub(1'b1),
         .out_valid(op_valid_nc[429]), .y(pt3_sub542), .flags(fl_pt3_sub542)
     );

@@ -30,6 +30,9 @@ module pgs_contact_pipe_scalar #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 49,
     localparam int N_OUT    = 16,
@@ -495,7 +498,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
@@ -509,7 +512,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
@@ -523,7 +526,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
@@ -565,7 +568,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_cA_x = pt0_mul60 - pt0_mul61   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul60), .b(dl_pt0_mul61), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
@@ -607,7 +610,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_cA_y = pt0_mul63 - pt0_mul64   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul63), .b(dl_pt0_mul64), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
@@ -649,7 +652,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_cA_z = pt0_mul66 - pt0_mul67   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul66), .b(dl_pt0_mul67), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
@@ -663,7 +666,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
@@ -677,7 +680,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
@@ -691,7 +694,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
@@ -733,7 +736,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_cB_x = pt0_mul72 - pt0_mul73   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul72), .b(dl_pt0_mul73), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
@@ -775,7 +778,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_cB_y = pt0_mul75 - pt0_mul76   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul75), .b(dl_pt0_mul76), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
@@ -817,7 +820,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_cB_z = pt0_mul78 - pt0_mul79   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul78), .b(dl_pt0_mul79), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
@@ -859,7 +862,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add83 = pt0_mul81 + pt0_mul82   (ready @7/7/7)
     logic [W-1:0] pt0_add83;
     logic [2:0] fl_pt0_add83;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add83 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add83 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul81), .b(dl_pt0_mul82), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add83), .flags(fl_pt0_add83)
     );
@@ -887,7 +890,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add85 = pt0_add83 + pt0_mul84   (ready @11/11/11)
     logic [W-1:0] pt0_add85;
     logic [2:0] fl_pt0_add85;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add85 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add85 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add83), .b(dl_pt0_mul84), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add85), .flags(fl_pt0_add85)
     );
@@ -929,7 +932,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add88 = pt0_mul86 + pt0_mul87   (ready @7/7/7)
     logic [W-1:0] pt0_add88;
     logic [2:0] fl_pt0_add88;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add88 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add88 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul86), .b(dl_pt0_mul87), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add88), .flags(fl_pt0_add88)
     );
@@ -957,7 +960,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add90 = pt0_add88 + pt0_mul89   (ready @11/11/11)
     logic [W-1:0] pt0_add90;
     logic [2:0] fl_pt0_add90;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add90 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add90 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add88), .b(dl_pt0_mul89), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add90), .flags(fl_pt0_add90)
     );
@@ -971,7 +974,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub91 = pt0_add85 - pt0_add90   (ready @15/15/15)
     logic [W-1:0] pt0_sub91;
     logic [2:0] fl_pt0_sub91;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub91 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub91 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add85), .b(dl_pt0_add90), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub91), .flags(fl_pt0_sub91)
     );
@@ -1013,7 +1016,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add94 = pt0_mul92 + pt0_mul93   (ready @18/18/18)
     logic [W-1:0] pt0_add94;
     logic [2:0] fl_pt0_add94;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add94 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add94 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul92), .b(dl_pt0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add94), .flags(fl_pt0_add94)
     );
@@ -1041,7 +1044,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add96 = pt0_add94 + pt0_mul95   (ready @22/22/22)
     logic [W-1:0] pt0_add96;
     logic [2:0] fl_pt0_add96;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add96 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add96 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add94), .b(dl_pt0_mul95), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add96), .flags(fl_pt0_add96)
     );
@@ -1083,7 +1086,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add99 = pt0_mul97 + pt0_mul98   (ready @18/18/18)
     logic [W-1:0] pt0_add99;
     logic [2:0] fl_pt0_add99;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add99 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add99 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul97), .b(dl_pt0_mul98), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add99), .flags(fl_pt0_add99)
     );
@@ -1111,7 +1114,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add101 = pt0_add99 + pt0_mul100   (ready @22/22/22)
     logic [W-1:0] pt0_add101;
     logic [2:0] fl_pt0_add101;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add101 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add101 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add99), .b(dl_pt0_mul100), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add101), .flags(fl_pt0_add101)
     );
@@ -1125,7 +1128,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub102 = pt0_add96 - pt0_add101   (ready @26/26/26)
     logic [W-1:0] pt0_sub102;
     logic [2:0] fl_pt0_sub102;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub102 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub102 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add96), .b(dl_pt0_add101), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub102), .flags(fl_pt0_sub102)
     );
@@ -1139,7 +1142,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_vrel = pt0_sub91 + pt0_sub102   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub91), .b(dl_pt0_sub102), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
@@ -1153,7 +1156,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add104 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add104;
     logic [2:0] fl_pt0_add104;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add104 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add104 (
         .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add104), .flags(fl_pt0_add104)
     );
@@ -1181,7 +1184,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add106 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add106;
     logic [2:0] fl_pt0_add106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add106 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(pt0_add106), .flags(fl_pt0_add106)
     );
@@ -1206,7 +1209,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
@@ -1353,7 +1356,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add119 = vA_x + pt0_mul116   (ready @53/53/53)
     logic [W-1:0] pt0_add119;
     logic [2:0] fl_pt0_add119;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add119 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add119 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul116), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(pt0_add119), .flags(fl_pt0_add119)
     );
@@ -1367,7 +1370,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add120 = vA_y + pt0_mul117   (ready @53/53/53)
     logic [W-1:0] pt0_add120;
     logic [2:0] fl_pt0_add120;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add120 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add120 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(pt0_add120), .flags(fl_pt0_add120)
     );
@@ -1381,7 +1384,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add121 = vA_z + pt0_mul118   (ready @53/53/53)
     logic [W-1:0] pt0_add121;
     logic [2:0] fl_pt0_add121;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add121 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add121 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(pt0_add121), .flags(fl_pt0_add121)
     );
@@ -1458,7 +1461,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add128 = wA_x + pt0_mul125   (ready @53/53/53)
     logic [W-1:0] pt0_add128;
     logic [2:0] fl_pt0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul125), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(pt0_add128), .flags(fl_pt0_add128)
     );
@@ -1472,7 +1475,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add129 = wA_y + pt0_mul126   (ready @53/53/53)
     logic [W-1:0] pt0_add129;
     logic [2:0] fl_pt0_add129;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add129 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add129 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(pt0_add129), .flags(fl_pt0_add129)
     );
@@ -1486,7 +1489,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_add130 = wA_z + pt0_mul127   (ready @53/53/53)
     logic [W-1:0] pt0_add130;
     logic [2:0] fl_pt0_add130;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add130 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add130 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul127), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add130), .flags(fl_pt0_add130)
     );
@@ -1563,7 +1566,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub137 = vB_x - pt0_mul134   (ready @53/53/53)
     logic [W-1:0] pt0_sub137;
     logic [2:0] fl_pt0_sub137;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub137 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub137 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul134), .sub(1'b1),
         .out_valid(op_valid_nc[79]), .y(pt0_sub137), .flags(fl_pt0_sub137)
     );
@@ -1577,7 +1580,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub138 = vB_y - pt0_mul135   (ready @53/53/53)
     logic [W-1:0] pt0_sub138;
     logic [2:0] fl_pt0_sub138;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub138 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub138 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul135), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(pt0_sub138), .flags(fl_pt0_sub138)
     );
@@ -1591,7 +1594,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub139 = vB_z - pt0_mul136   (ready @53/53/53)
     logic [W-1:0] pt0_sub139;
     logic [2:0] fl_pt0_sub139;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub139 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub139 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul136), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(pt0_sub139), .flags(fl_pt0_sub139)
     );
@@ -1668,7 +1671,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub146 = wB_x - pt0_mul143   (ready @53/53/53)
     logic [W-1:0] pt0_sub146;
     logic [2:0] fl_pt0_sub146;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub146 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub146 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul143), .sub(1'b1),
         .out_valid(op_valid_nc[85]), .y(pt0_sub146), .flags(fl_pt0_sub146)
     );
@@ -1682,7 +1685,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub147 = wB_y - pt0_mul144   (ready @53/53/53)
     logic [W-1:0] pt0_sub147;
     logic [2:0] fl_pt0_sub147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub147 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul144), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(pt0_sub147), .flags(fl_pt0_sub147)
     );
@@ -1696,7 +1699,7 @@ module pgs_contact_pipe_scalar #(
     // pt0_sub148 = wB_z - pt0_mul145   (ready @53/53/53)
     logic [W-1:0] pt0_sub148;
     logic [2:0] fl_pt0_sub148;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub148 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub148 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul145), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(pt0_sub148), .flags(fl_pt0_sub148)
     );
@@ -1738,7 +1741,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
@@ -1752,7 +1755,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
@@ -1766,7 +1769,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
@@ -1808,7 +1811,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_cA_x = pt1_mul156 - pt1_mul157   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul156), .b(dl_pt1_mul157), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
@@ -1850,7 +1853,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_cA_y = pt1_mul159 - pt1_mul160   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul159), .b(dl_pt1_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[96]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
@@ -1892,7 +1895,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_cA_z = pt1_mul162 - pt1_mul163   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul162), .b(dl_pt1_mul163), .sub(1'b1),
         .out_valid(op_valid_nc[99]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
@@ -1906,7 +1909,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
@@ -1920,7 +1923,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
@@ -1934,7 +1937,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
@@ -1976,7 +1979,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_cB_x = pt1_mul168 - pt1_mul169   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul168), .b(dl_pt1_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
@@ -2018,7 +2021,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_cB_y = pt1_mul171 - pt1_mul172   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul171), .b(dl_pt1_mul172), .sub(1'b1),
         .out_valid(op_valid_nc[108]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
@@ -2060,7 +2063,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_cB_z = pt1_mul174 - pt1_mul175   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul174), .b(dl_pt1_mul175), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
@@ -2102,7 +2105,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add179 = pt1_mul177 + pt1_mul178   (ready @60/60/60)
     logic [W-1:0] pt1_add179;
     logic [2:0] fl_pt1_add179;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add179 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add179 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul177), .b(dl_pt1_mul178), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(pt1_add179), .flags(fl_pt1_add179)
     );
@@ -2130,7 +2133,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add181 = pt1_add179 + pt1_mul180   (ready @64/64/64)
     logic [W-1:0] pt1_add181;
     logic [2:0] fl_pt1_add181;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add181 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add181 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add179), .b(dl_pt1_mul180), .sub(1'b0),
         .out_valid(op_valid_nc[116]), .y(pt1_add181), .flags(fl_pt1_add181)
     );
@@ -2172,7 +2175,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add184 = pt1_mul182 + pt1_mul183   (ready @60/60/60)
     logic [W-1:0] pt1_add184;
     logic [2:0] fl_pt1_add184;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add184 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add184 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul182), .b(dl_pt1_mul183), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(pt1_add184), .flags(fl_pt1_add184)
     );
@@ -2200,7 +2203,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add186 = pt1_add184 + pt1_mul185   (ready @64/64/64)
     logic [W-1:0] pt1_add186;
     logic [2:0] fl_pt1_add186;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add186 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add186 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add184), .b(dl_pt1_mul185), .sub(1'b0),
         .out_valid(op_valid_nc[121]), .y(pt1_add186), .flags(fl_pt1_add186)
     );
@@ -2214,7 +2217,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub187 = pt1_add181 - pt1_add186   (ready @68/68/68)
     logic [W-1:0] pt1_sub187;
     logic [2:0] fl_pt1_sub187;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub187 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub187 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add181), .b(dl_pt1_add186), .sub(1'b1),
         .out_valid(op_valid_nc[122]), .y(pt1_sub187), .flags(fl_pt1_sub187)
     );
@@ -2256,7 +2259,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add190 = pt1_mul188 + pt1_mul189   (ready @60/60/60)
     logic [W-1:0] pt1_add190;
     logic [2:0] fl_pt1_add190;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add190 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add190 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul188), .b(dl_pt1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(pt1_add190), .flags(fl_pt1_add190)
     );
@@ -2284,7 +2287,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add192 = pt1_add190 + pt1_mul191   (ready @64/64/64)
     logic [W-1:0] pt1_add192;
     logic [2:0] fl_pt1_add192;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add192 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add192 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add190), .b(dl_pt1_mul191), .sub(1'b0),
         .out_valid(op_valid_nc[127]), .y(pt1_add192), .flags(fl_pt1_add192)
     );
@@ -2326,7 +2329,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add195 = pt1_mul193 + pt1_mul194   (ready @60/60/60)
     logic [W-1:0] pt1_add195;
     logic [2:0] fl_pt1_add195;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add195 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add195 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(pt1_add195), .flags(fl_pt1_add195)
     );
@@ -2354,7 +2357,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add197 = pt1_add195 + pt1_mul196   (ready @64/64/64)
     logic [W-1:0] pt1_add197;
     logic [2:0] fl_pt1_add197;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add197 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add197 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add195), .b(dl_pt1_mul196), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(pt1_add197), .flags(fl_pt1_add197)
     );
@@ -2368,7 +2371,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub198 = pt1_add192 - pt1_add197   (ready @68/68/68)
     logic [W-1:0] pt1_sub198;
     logic [2:0] fl_pt1_sub198;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub198 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub198 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add192), .b(dl_pt1_add197), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(pt1_sub198), .flags(fl_pt1_sub198)
     );
@@ -2382,7 +2385,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_vrel = pt1_sub187 + pt1_sub198   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub187), .b(dl_pt1_sub198), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
@@ -2396,7 +2399,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add200 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add200;
     logic [2:0] fl_pt1_add200;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add200 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add200 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(pt1_add200), .flags(fl_pt1_add200)
     );
@@ -2424,7 +2427,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add202 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add202;
     logic [2:0] fl_pt1_add202;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add202 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add202 (
         .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[137]), .y(pt1_add202), .flags(fl_pt1_add202)
     );
@@ -2449,7 +2452,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[139]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
@@ -2596,7 +2599,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add215 = pt0_vA_x + pt1_mul212   (ready @95/95/95)
     logic [W-1:0] pt1_add215;
     logic [2:0] fl_pt1_add215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add215 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul212), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(pt1_add215), .flags(fl_pt1_add215)
     );
@@ -2610,7 +2613,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add216 = pt0_vA_y + pt1_mul213   (ready @95/95/95)
     logic [W-1:0] pt1_add216;
     logic [2:0] fl_pt1_add216;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add216 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add216 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[150]), .y(pt1_add216), .flags(fl_pt1_add216)
     );
@@ -2624,7 +2627,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add217 = pt0_vA_z + pt1_mul214   (ready @95/95/95)
     logic [W-1:0] pt1_add217;
     logic [2:0] fl_pt1_add217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add217 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add217), .flags(fl_pt1_add217)
     );
@@ -2701,7 +2704,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add224 = pt0_wA_x + pt1_mul221   (ready @95/95/95)
     logic [W-1:0] pt1_add224;
     logic [2:0] fl_pt1_add224;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add224 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add224 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(pt1_add224), .flags(fl_pt1_add224)
     );
@@ -2715,7 +2718,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add225 = pt0_wA_y + pt1_mul222   (ready @95/95/95)
     logic [W-1:0] pt1_add225;
     logic [2:0] fl_pt1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul222), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(pt1_add225), .flags(fl_pt1_add225)
     );
@@ -2729,7 +2732,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_add226 = pt0_wA_z + pt1_mul223   (ready @95/95/95)
     logic [W-1:0] pt1_add226;
     logic [2:0] fl_pt1_add226;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add226 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add226 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(pt1_add226), .flags(fl_pt1_add226)
     );
@@ -2806,7 +2809,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub233 = pt0_vB_x - pt1_mul230   (ready @95/95/95)
     logic [W-1:0] pt1_sub233;
     logic [2:0] fl_pt1_sub233;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub233 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub233 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul230), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(pt1_sub233), .flags(fl_pt1_sub233)
     );
@@ -2820,7 +2823,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub234 = pt0_vB_y - pt1_mul231   (ready @95/95/95)
     logic [W-1:0] pt1_sub234;
     logic [2:0] fl_pt1_sub234;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub234 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub234 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul231), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(pt1_sub234), .flags(fl_pt1_sub234)
     );
@@ -2834,7 +2837,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub235 = pt0_vB_z - pt1_mul232   (ready @95/95/95)
     logic [W-1:0] pt1_sub235;
     logic [2:0] fl_pt1_sub235;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub235 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub235 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul232), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_sub235), .flags(fl_pt1_sub235)
     );
@@ -2911,7 +2914,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub242 = pt0_wB_x - pt1_mul239   (ready @95/95/95)
     logic [W-1:0] pt1_sub242;
     logic [2:0] fl_pt1_sub242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul239), .sub(1'b1),
         .out_valid(op_valid_nc[167]), .y(pt1_sub242), .flags(fl_pt1_sub242)
     );
@@ -2925,7 +2928,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub243 = pt0_wB_y - pt1_mul240   (ready @95/95/95)
     logic [W-1:0] pt1_sub243;
     logic [2:0] fl_pt1_sub243;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub243 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub243 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul240), .sub(1'b1),
         .out_valid(op_valid_nc[168]), .y(pt1_sub243), .flags(fl_pt1_sub243)
     );
@@ -2939,7 +2942,7 @@ module pgs_contact_pipe_scalar #(
     // pt1_sub244 = pt0_wB_z - pt1_mul241   (ready @95/95/95)
     logic [W-1:0] pt1_sub244;
     logic [2:0] fl_pt1_sub244;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub244 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub244 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul241), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(pt1_sub244), .flags(fl_pt1_sub244)
     );
@@ -2981,7 +2984,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
@@ -2995,7 +2998,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
@@ -3009,7 +3012,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
@@ -3051,7 +3054,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_cA_x = pt2_mul252 - pt2_mul253   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul252), .b(dl_pt2_mul253), .sub(1'b1),
         .out_valid(op_valid_nc[175]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
@@ -3093,7 +3096,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_cA_y = pt2_mul255 - pt2_mul256   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul255), .b(dl_pt2_mul256), .sub(1'b1),
         .out_valid(op_valid_nc[178]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
@@ -3135,7 +3138,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_cA_z = pt2_mul258 - pt2_mul259   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul258), .b(dl_pt2_mul259), .sub(1'b1),
         .out_valid(op_valid_nc[181]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
@@ -3149,7 +3152,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[182]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
@@ -3163,7 +3166,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
@@ -3177,7 +3180,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
@@ -3219,7 +3222,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_cB_x = pt2_mul264 - pt2_mul265   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul264), .b(dl_pt2_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[187]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
@@ -3261,7 +3264,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_cB_y = pt2_mul267 - pt2_mul268   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul267), .b(dl_pt2_mul268), .sub(1'b1),
         .out_valid(op_valid_nc[190]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
@@ -3303,7 +3306,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_cB_z = pt2_mul270 - pt2_mul271   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul270), .b(dl_pt2_mul271), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
@@ -3345,7 +3348,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add275 = pt2_mul273 + pt2_mul274   (ready @102/102/102)
     logic [W-1:0] pt2_add275;
     logic [2:0] fl_pt2_add275;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add275 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add275 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul273), .b(dl_pt2_mul274), .sub(1'b0),
         .out_valid(op_valid_nc[196]), .y(pt2_add275), .flags(fl_pt2_add275)
     );
@@ -3373,7 +3376,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add277 = pt2_add275 + pt2_mul276   (ready @106/106/106)
     logic [W-1:0] pt2_add277;
     logic [2:0] fl_pt2_add277;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add277 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add277 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add275), .b(dl_pt2_mul276), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt2_add277), .flags(fl_pt2_add277)
     );
@@ -3415,7 +3418,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add280 = pt2_mul278 + pt2_mul279   (ready @102/102/102)
     logic [W-1:0] pt2_add280;
     logic [2:0] fl_pt2_add280;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add280 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add280 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul278), .b(dl_pt2_mul279), .sub(1'b0),
         .out_valid(op_valid_nc[201]), .y(pt2_add280), .flags(fl_pt2_add280)
     );
@@ -3443,7 +3446,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add282 = pt2_add280 + pt2_mul281   (ready @106/106/106)
     logic [W-1:0] pt2_add282;
     logic [2:0] fl_pt2_add282;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add282 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add282 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add280), .b(dl_pt2_mul281), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt2_add282), .flags(fl_pt2_add282)
     );
@@ -3457,7 +3460,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub283 = pt2_add277 - pt2_add282   (ready @110/110/110)
     logic [W-1:0] pt2_sub283;
     logic [2:0] fl_pt2_sub283;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub283 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub283 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add277), .b(dl_pt2_add282), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(pt2_sub283), .flags(fl_pt2_sub283)
     );
@@ -3499,7 +3502,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add286 = pt2_mul284 + pt2_mul285   (ready @102/102/102)
     logic [W-1:0] pt2_add286;
     logic [2:0] fl_pt2_add286;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add286 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add286 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul284), .b(dl_pt2_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[207]), .y(pt2_add286), .flags(fl_pt2_add286)
     );
@@ -3527,7 +3530,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add288 = pt2_add286 + pt2_mul287   (ready @106/106/106)
     logic [W-1:0] pt2_add288;
     logic [2:0] fl_pt2_add288;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add288 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add288 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add286), .b(dl_pt2_mul287), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(pt2_add288), .flags(fl_pt2_add288)
     );
@@ -3569,7 +3572,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add291 = pt2_mul289 + pt2_mul290   (ready @102/102/102)
     logic [W-1:0] pt2_add291;
     logic [2:0] fl_pt2_add291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add291 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul289), .b(dl_pt2_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[212]), .y(pt2_add291), .flags(fl_pt2_add291)
     );
@@ -3597,7 +3600,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add293 = pt2_add291 + pt2_mul292   (ready @106/106/106)
     logic [W-1:0] pt2_add293;
     logic [2:0] fl_pt2_add293;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add293 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add293 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add291), .b(dl_pt2_mul292), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(pt2_add293), .flags(fl_pt2_add293)
     );
@@ -3611,7 +3614,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub294 = pt2_add288 - pt2_add293   (ready @110/110/110)
     logic [W-1:0] pt2_sub294;
     logic [2:0] fl_pt2_sub294;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub294 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub294 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add288), .b(dl_pt2_add293), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(pt2_sub294), .flags(fl_pt2_sub294)
     );
@@ -3625,7 +3628,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_vrel = pt2_sub283 + pt2_sub294   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub283), .b(dl_pt2_sub294), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
@@ -3639,7 +3642,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add296 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add296;
     logic [2:0] fl_pt2_add296;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add296 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add296 (
         .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[217]), .y(pt2_add296), .flags(fl_pt2_add296)
     );
@@ -3667,7 +3670,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add298 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add298;
     logic [2:0] fl_pt2_add298;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add298 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add298 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(pt2_add298), .flags(fl_pt2_add298)
     );
@@ -3692,7 +3695,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
@@ -3839,7 +3842,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add311 = pt1_vA_x + pt2_mul308   (ready @137/137/137)
     logic [W-1:0] pt2_add311;
     logic [2:0] fl_pt2_add311;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add311 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add311 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul308), .sub(1'b0),
         .out_valid(op_valid_nc[231]), .y(pt2_add311), .flags(fl_pt2_add311)
     );
@@ -3853,7 +3856,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add312 = pt1_vA_y + pt2_mul309   (ready @137/137/137)
     logic [W-1:0] pt2_add312;
     logic [2:0] fl_pt2_add312;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add312 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add312 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul309), .sub(1'b0),
         .out_valid(op_valid_nc[232]), .y(pt2_add312), .flags(fl_pt2_add312)
     );
@@ -3867,7 +3870,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add313 = pt1_vA_z + pt2_mul310   (ready @137/137/137)
     logic [W-1:0] pt2_add313;
     logic [2:0] fl_pt2_add313;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add313 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add313 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul310), .sub(1'b0),
         .out_valid(op_valid_nc[233]), .y(pt2_add313), .flags(fl_pt2_add313)
     );
@@ -3944,7 +3947,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add320 = pt1_wA_x + pt2_mul317   (ready @137/137/137)
     logic [W-1:0] pt2_add320;
     logic [2:0] fl_pt2_add320;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add320 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add320 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul317), .sub(1'b0),
         .out_valid(op_valid_nc[237]), .y(pt2_add320), .flags(fl_pt2_add320)
     );
@@ -3958,7 +3961,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add321 = pt1_wA_y + pt2_mul318   (ready @137/137/137)
     logic [W-1:0] pt2_add321;
     logic [2:0] fl_pt2_add321;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add321 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add321 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul318), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(pt2_add321), .flags(fl_pt2_add321)
     );
@@ -3972,7 +3975,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_add322 = pt1_wA_z + pt2_mul319   (ready @137/137/137)
     logic [W-1:0] pt2_add322;
     logic [2:0] fl_pt2_add322;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add322 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add322 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul319), .sub(1'b0),
         .out_valid(op_valid_nc[239]), .y(pt2_add322), .flags(fl_pt2_add322)
     );
@@ -4049,7 +4052,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub329 = pt1_vB_x - pt2_mul326   (ready @137/137/137)
     logic [W-1:0] pt2_sub329;
     logic [2:0] fl_pt2_sub329;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub329 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub329 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul326), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(pt2_sub329), .flags(fl_pt2_sub329)
     );
@@ -4063,7 +4066,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub330 = pt1_vB_y - pt2_mul327   (ready @137/137/137)
     logic [W-1:0] pt2_sub330;
     logic [2:0] fl_pt2_sub330;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub330 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub330 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul327), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(pt2_sub330), .flags(fl_pt2_sub330)
     );
@@ -4077,7 +4080,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub331 = pt1_vB_z - pt2_mul328   (ready @137/137/137)
     logic [W-1:0] pt2_sub331;
     logic [2:0] fl_pt2_sub331;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub331 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub331 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul328), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(pt2_sub331), .flags(fl_pt2_sub331)
     );
@@ -4154,7 +4157,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub338 = pt1_wB_x - pt2_mul335   (ready @137/137/137)
     logic [W-1:0] pt2_sub338;
     logic [2:0] fl_pt2_sub338;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub338 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub338 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul335), .sub(1'b1),
         .out_valid(op_valid_nc[249]), .y(pt2_sub338), .flags(fl_pt2_sub338)
     );
@@ -4168,7 +4171,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub339 = pt1_wB_y - pt2_mul336   (ready @137/137/137)
     logic [W-1:0] pt2_sub339;
     logic [2:0] fl_pt2_sub339;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub339 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub339 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul336), .sub(1'b1),
         .out_valid(op_valid_nc[250]), .y(pt2_sub339), .flags(fl_pt2_sub339)
     );
@@ -4182,7 +4185,7 @@ module pgs_contact_pipe_scalar #(
     // pt2_sub340 = pt1_wB_z - pt2_mul337   (ready @137/137/137)
     logic [W-1:0] pt2_sub340;
     logic [2:0] fl_pt2_sub340;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub340 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub340 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul337), .sub(1'b1),
         .out_valid(op_valid_nc[251]), .y(pt2_sub340), .flags(fl_pt2_sub340)
     );
@@ -4224,7 +4227,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
@@ -4238,7 +4241,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
@@ -4252,7 +4255,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
@@ -4294,7 +4297,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_cA_x = pt3_mul348 - pt3_mul349   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul348), .b(dl_pt3_mul349), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
@@ -4336,7 +4339,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_cA_y = pt3_mul351 - pt3_mul352   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul351), .b(dl_pt3_mul352), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
@@ -4378,7 +4381,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_cA_z = pt3_mul354 - pt3_mul355   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul354), .b(dl_pt3_mul355), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
@@ -4392,7 +4395,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[264]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
@@ -4406,7 +4409,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[265]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
@@ -4420,7 +4423,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
@@ -4462,7 +4465,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_cB_x = pt3_mul360 - pt3_mul361   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul360), .b(dl_pt3_mul361), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
@@ -4504,7 +4507,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_cB_y = pt3_mul363 - pt3_mul364   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul363), .b(dl_pt3_mul364), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
@@ -4546,7 +4549,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_cB_z = pt3_mul366 - pt3_mul367   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul366), .b(dl_pt3_mul367), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
@@ -4588,7 +4591,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add371 = pt3_mul369 + pt3_mul370   (ready @144/144/144)
     logic [W-1:0] pt3_add371;
     logic [2:0] fl_pt3_add371;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add371 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add371 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul369), .b(dl_pt3_mul370), .sub(1'b0),
         .out_valid(op_valid_nc[278]), .y(pt3_add371), .flags(fl_pt3_add371)
     );
@@ -4616,7 +4619,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add373 = pt3_add371 + pt3_mul372   (ready @148/148/148)
     logic [W-1:0] pt3_add373;
     logic [2:0] fl_pt3_add373;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add373 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add373 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add371), .b(dl_pt3_mul372), .sub(1'b0),
         .out_valid(op_valid_nc[280]), .y(pt3_add373), .flags(fl_pt3_add373)
     );
@@ -4658,7 +4661,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add376 = pt3_mul374 + pt3_mul375   (ready @144/144/144)
     logic [W-1:0] pt3_add376;
     logic [2:0] fl_pt3_add376;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add376 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add376 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul374), .b(dl_pt3_mul375), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(pt3_add376), .flags(fl_pt3_add376)
     );
@@ -4686,7 +4689,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add378 = pt3_add376 + pt3_mul377   (ready @148/148/148)
     logic [W-1:0] pt3_add378;
     logic [2:0] fl_pt3_add378;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add378 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add378 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add376), .b(dl_pt3_mul377), .sub(1'b0),
         .out_valid(op_valid_nc[285]), .y(pt3_add378), .flags(fl_pt3_add378)
     );
@@ -4700,7 +4703,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub379 = pt3_add373 - pt3_add378   (ready @152/152/152)
     logic [W-1:0] pt3_sub379;
     logic [2:0] fl_pt3_sub379;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub379 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub379 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add373), .b(dl_pt3_add378), .sub(1'b1),
         .out_valid(op_valid_nc[286]), .y(pt3_sub379), .flags(fl_pt3_sub379)
     );
@@ -4742,7 +4745,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add382 = pt3_mul380 + pt3_mul381   (ready @144/144/144)
     logic [W-1:0] pt3_add382;
     logic [2:0] fl_pt3_add382;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add382 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add382 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul380), .b(dl_pt3_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(pt3_add382), .flags(fl_pt3_add382)
     );
@@ -4770,7 +4773,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add384 = pt3_add382 + pt3_mul383   (ready @148/148/148)
     logic [W-1:0] pt3_add384;
     logic [2:0] fl_pt3_add384;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add384 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add384 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add382), .b(dl_pt3_mul383), .sub(1'b0),
         .out_valid(op_valid_nc[291]), .y(pt3_add384), .flags(fl_pt3_add384)
     );
@@ -4812,7 +4815,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add387 = pt3_mul385 + pt3_mul386   (ready @144/144/144)
     logic [W-1:0] pt3_add387;
     logic [2:0] fl_pt3_add387;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add387 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add387 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul385), .b(dl_pt3_mul386), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt3_add387), .flags(fl_pt3_add387)
     );
@@ -4840,7 +4843,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add389 = pt3_add387 + pt3_mul388   (ready @148/148/148)
     logic [W-1:0] pt3_add389;
     logic [2:0] fl_pt3_add389;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add389 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add389 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add387), .b(dl_pt3_mul388), .sub(1'b0),
         .out_valid(op_valid_nc[296]), .y(pt3_add389), .flags(fl_pt3_add389)
     );
@@ -4854,7 +4857,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub390 = pt3_add384 - pt3_add389   (ready @152/152/152)
     logic [W-1:0] pt3_sub390;
     logic [2:0] fl_pt3_sub390;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub390 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub390 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add384), .b(dl_pt3_add389), .sub(1'b1),
         .out_valid(op_valid_nc[297]), .y(pt3_sub390), .flags(fl_pt3_sub390)
     );
@@ -4868,7 +4871,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_vrel = pt3_sub379 + pt3_sub390   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub379), .b(dl_pt3_sub390), .sub(1'b0),
         .out_valid(op_valid_nc[298]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
@@ -4882,7 +4885,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add392 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add392;
     logic [2:0] fl_pt3_add392;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add392 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add392 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt3_add392), .flags(fl_pt3_add392)
     );
@@ -4910,7 +4913,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add394 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add394;
     logic [2:0] fl_pt3_add394;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add394 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add394 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(pt3_add394), .flags(fl_pt3_add394)
     );
@@ -4935,7 +4938,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[303]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
@@ -5082,7 +5085,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add407 = pt2_vA_x + pt3_mul404   (ready @179/179/179)
     logic [W-1:0] pt3_add407;
     logic [2:0] fl_pt3_add407;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add407 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add407 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul404), .sub(1'b0),
         .out_valid(op_valid_nc[313]), .y(pt3_add407), .flags(fl_pt3_add407)
     );
@@ -5096,7 +5099,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add408 = pt2_vA_y + pt3_mul405   (ready @179/179/179)
     logic [W-1:0] pt3_add408;
     logic [2:0] fl_pt3_add408;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add408 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add408 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul405), .sub(1'b0),
         .out_valid(op_valid_nc[314]), .y(pt3_add408), .flags(fl_pt3_add408)
     );
@@ -5110,7 +5113,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add409 = pt2_vA_z + pt3_mul406   (ready @179/179/179)
     logic [W-1:0] pt3_add409;
     logic [2:0] fl_pt3_add409;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add409 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add409 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul406), .sub(1'b0),
         .out_valid(op_valid_nc[315]), .y(pt3_add409), .flags(fl_pt3_add409)
     );
@@ -5187,7 +5190,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add416 = pt2_wA_x + pt3_mul413   (ready @179/179/179)
     logic [W-1:0] pt3_add416;
     logic [2:0] fl_pt3_add416;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add416 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add416 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul413), .sub(1'b0),
         .out_valid(op_valid_nc[319]), .y(pt3_add416), .flags(fl_pt3_add416)
     );
@@ -5201,7 +5204,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add417 = pt2_wA_y + pt3_mul414   (ready @179/179/179)
     logic [W-1:0] pt3_add417;
     logic [2:0] fl_pt3_add417;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add417 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add417 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul414), .sub(1'b0),
         .out_valid(op_valid_nc[320]), .y(pt3_add417), .flags(fl_pt3_add417)
     );
@@ -5215,7 +5218,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_add418 = pt2_wA_z + pt3_mul415   (ready @179/179/179)
     logic [W-1:0] pt3_add418;
     logic [2:0] fl_pt3_add418;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add418 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add418 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul415), .sub(1'b0),
         .out_valid(op_valid_nc[321]), .y(pt3_add418), .flags(fl_pt3_add418)
     );
@@ -5292,7 +5295,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub425 = pt2_vB_x - pt3_mul422   (ready @179/179/179)
     logic [W-1:0] pt3_sub425;
     logic [2:0] fl_pt3_sub425;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub425 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub425 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul422), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(pt3_sub425), .flags(fl_pt3_sub425)
     );
@@ -5306,7 +5309,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub426 = pt2_vB_y - pt3_mul423   (ready @179/179/179)
     logic [W-1:0] pt3_sub426;
     logic [2:0] fl_pt3_sub426;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub426 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub426 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul423), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(pt3_sub426), .flags(fl_pt3_sub426)
     );
@@ -5320,7 +5323,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub427 = pt2_vB_z - pt3_mul424   (ready @179/179/179)
     logic [W-1:0] pt3_sub427;
     logic [2:0] fl_pt3_sub427;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub427 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub427 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul424), .sub(1'b1),
         .out_valid(op_valid_nc[327]), .y(pt3_sub427), .flags(fl_pt3_sub427)
     );
@@ -5397,7 +5400,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub434 = pt2_wB_x - pt3_mul431   (ready @179/179/179)
     logic [W-1:0] pt3_sub434;
     logic [2:0] fl_pt3_sub434;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub434 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub434 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul431), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(pt3_sub434), .flags(fl_pt3_sub434)
     );
@@ -5411,7 +5414,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub435 = pt2_wB_y - pt3_mul432   (ready @179/179/179)
     logic [W-1:0] pt3_sub435;
     logic [2:0] fl_pt3_sub435;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub435 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub435 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul432), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(pt3_sub435), .flags(fl_pt3_sub435)
     );
@@ -5425,7 +5428,7 @@ module pgs_contact_pipe_scalar #(
     // pt3_sub436 = pt2_wB_z - pt3_mul433   (ready @179/179/179)
     logic [W-1:0] pt3_sub436;
     logic [2:0] fl_pt3_sub436;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub436 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub436 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul433), .sub(1'b1),
         .out_valid(op_valid_nc[333]), .y(pt3_sub436), .flags(fl_pt3_sub436)
     );

@@ -35,6 +35,9 @@ module pgs_contact_pipe_soft #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 55,
     localparam int N_OUT    = 16,
@@ -654,7 +657,7 @@ module pgs_contact_pipe_soft #(
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
@@ -668,7 +671,7 @@ module pgs_contact_pipe_soft #(
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
@@ -682,7 +685,7 @@ module pgs_contact_pipe_soft #(
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
@@ -724,7 +727,7 @@ module pgs_contact_pipe_soft #(
     // pt0_cA_x = pt0_mul84 - pt0_mul85   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul84), .b(dl_pt0_mul85), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
@@ -766,7 +769,7 @@ module pgs_contact_pipe_soft #(
     // pt0_cA_y = pt0_mul87 - pt0_mul88   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul87), .b(dl_pt0_mul88), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
@@ -808,7 +811,7 @@ module pgs_contact_pipe_soft #(
     // pt0_cA_z = pt0_mul90 - pt0_mul91   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul90), .b(dl_pt0_mul91), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
@@ -822,7 +825,7 @@ module pgs_contact_pipe_soft #(
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
@@ -836,7 +839,7 @@ module pgs_contact_pipe_soft #(
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
@@ -850,7 +853,7 @@ module pgs_contact_pipe_soft #(
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
@@ -892,7 +895,7 @@ module pgs_contact_pipe_soft #(
     // pt0_cB_x = pt0_mul96 - pt0_mul97   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
@@ -934,7 +937,7 @@ module pgs_contact_pipe_soft #(
     // pt0_cB_y = pt0_mul99 - pt0_mul100   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul99), .b(dl_pt0_mul100), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
@@ -976,7 +979,7 @@ module pgs_contact_pipe_soft #(
     // pt0_cB_z = pt0_mul102 - pt0_mul103   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul102), .b(dl_pt0_mul103), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
@@ -1018,7 +1021,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add107 = pt0_mul105 + pt0_mul106   (ready @7/7/7)
     logic [W-1:0] pt0_add107;
     logic [2:0] fl_pt0_add107;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add107 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add107 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul105), .b(dl_pt0_mul106), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add107), .flags(fl_pt0_add107)
     );
@@ -1046,7 +1049,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add109 = pt0_add107 + pt0_mul108   (ready @11/11/11)
     logic [W-1:0] pt0_add109;
     logic [2:0] fl_pt0_add109;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add109 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add109 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add107), .b(dl_pt0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add109), .flags(fl_pt0_add109)
     );
@@ -1088,7 +1091,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add112 = pt0_mul110 + pt0_mul111   (ready @7/7/7)
     logic [W-1:0] pt0_add112;
     logic [2:0] fl_pt0_add112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add112 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul110), .b(dl_pt0_mul111), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add112), .flags(fl_pt0_add112)
     );
@@ -1116,7 +1119,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add114 = pt0_add112 + pt0_mul113   (ready @11/11/11)
     logic [W-1:0] pt0_add114;
     logic [2:0] fl_pt0_add114;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add114 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add114 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add112), .b(dl_pt0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add114), .flags(fl_pt0_add114)
     );
@@ -1130,7 +1133,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub115 = pt0_add109 - pt0_add114   (ready @15/15/15)
     logic [W-1:0] pt0_sub115;
     logic [2:0] fl_pt0_sub115;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub115 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub115 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add109), .b(dl_pt0_add114), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub115), .flags(fl_pt0_sub115)
     );
@@ -1172,7 +1175,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add118 = pt0_mul116 + pt0_mul117   (ready @18/18/18)
     logic [W-1:0] pt0_add118;
     logic [2:0] fl_pt0_add118;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add118 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add118 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul116), .b(dl_pt0_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add118), .flags(fl_pt0_add118)
     );
@@ -1200,7 +1203,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add120 = pt0_add118 + pt0_mul119   (ready @22/22/22)
     logic [W-1:0] pt0_add120;
     logic [2:0] fl_pt0_add120;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add120 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add120 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add118), .b(dl_pt0_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add120), .flags(fl_pt0_add120)
     );
@@ -1242,7 +1245,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add123 = pt0_mul121 + pt0_mul122   (ready @18/18/18)
     logic [W-1:0] pt0_add123;
     logic [2:0] fl_pt0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul121), .b(dl_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add123), .flags(fl_pt0_add123)
     );
@@ -1270,7 +1273,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add125 = pt0_add123 + pt0_mul124   (ready @22/22/22)
     logic [W-1:0] pt0_add125;
     logic [2:0] fl_pt0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add123), .b(dl_pt0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add125), .flags(fl_pt0_add125)
     );
@@ -1284,7 +1287,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub126 = pt0_add120 - pt0_add125   (ready @26/26/26)
     logic [W-1:0] pt0_sub126;
     logic [2:0] fl_pt0_sub126;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub126 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub126 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add120), .b(dl_pt0_add125), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub126), .flags(fl_pt0_sub126)
     );
@@ -1298,7 +1301,7 @@ module pgs_contact_pipe_soft #(
     // pt0_vrel = pt0_sub115 + pt0_sub126   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub115), .b(dl_pt0_sub126), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
@@ -1312,7 +1315,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add128 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add128;
     logic [2:0] fl_pt0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add128), .flags(fl_pt0_add128)
     );
@@ -1354,7 +1357,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add131 = pt0_lam_kept + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add131;
     logic [2:0] fl_pt0_add131;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add131 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add131 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_pt0_lam_kept), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[56]), .y(pt0_add131), .flags(fl_pt0_add131)
     );
@@ -1379,7 +1382,7 @@ module pgs_contact_pipe_soft #(
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[58]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
@@ -1526,7 +1529,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add144 = vA_x + pt0_mul141   (ready @53/53/53)
     logic [W-1:0] pt0_add144;
     logic [2:0] fl_pt0_add144;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add144 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add144 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul141), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(pt0_add144), .flags(fl_pt0_add144)
     );
@@ -1540,7 +1543,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add145 = vA_y + pt0_mul142   (ready @53/53/53)
     logic [W-1:0] pt0_add145;
     logic [2:0] fl_pt0_add145;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add145 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add145 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul142), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(pt0_add145), .flags(fl_pt0_add145)
     );
@@ -1554,7 +1557,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add146 = vA_z + pt0_mul143   (ready @53/53/53)
     logic [W-1:0] pt0_add146;
     logic [2:0] fl_pt0_add146;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add146 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add146 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(pt0_add146), .flags(fl_pt0_add146)
     );
@@ -1631,7 +1634,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add153 = wA_x + pt0_mul150   (ready @53/53/53)
     logic [W-1:0] pt0_add153;
     logic [2:0] fl_pt0_add153;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add153 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add153 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul150), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(pt0_add153), .flags(fl_pt0_add153)
     );
@@ -1645,7 +1648,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add154 = wA_y + pt0_mul151   (ready @53/53/53)
     logic [W-1:0] pt0_add154;
     logic [2:0] fl_pt0_add154;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add154 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add154 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul151), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add154), .flags(fl_pt0_add154)
     );
@@ -1659,7 +1662,7 @@ module pgs_contact_pipe_soft #(
     // pt0_add155 = wA_z + pt0_mul152   (ready @53/53/53)
     logic [W-1:0] pt0_add155;
     logic [2:0] fl_pt0_add155;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add155 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_add155 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul152), .sub(1'b0),
         .out_valid(op_valid_nc[76]), .y(pt0_add155), .flags(fl_pt0_add155)
     );
@@ -1736,7 +1739,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub162 = vB_x - pt0_mul159   (ready @53/53/53)
     logic [W-1:0] pt0_sub162;
     logic [2:0] fl_pt0_sub162;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub162 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub162 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul159), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(pt0_sub162), .flags(fl_pt0_sub162)
     );
@@ -1750,7 +1753,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub163 = vB_y - pt0_mul160   (ready @53/53/53)
     logic [W-1:0] pt0_sub163;
     logic [2:0] fl_pt0_sub163;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub163 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub163 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(pt0_sub163), .flags(fl_pt0_sub163)
     );
@@ -1764,7 +1767,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub164 = vB_z - pt0_mul161   (ready @53/53/53)
     logic [W-1:0] pt0_sub164;
     logic [2:0] fl_pt0_sub164;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub164 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub164 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(pt0_sub164), .flags(fl_pt0_sub164)
     );
@@ -1841,7 +1844,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub171 = wB_x - pt0_mul168   (ready @53/53/53)
     logic [W-1:0] pt0_sub171;
     logic [2:0] fl_pt0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(pt0_sub171), .flags(fl_pt0_sub171)
     );
@@ -1855,7 +1858,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub172 = wB_y - pt0_mul169   (ready @53/53/53)
     logic [W-1:0] pt0_sub172;
     logic [2:0] fl_pt0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(pt0_sub172), .flags(fl_pt0_sub172)
     );
@@ -1869,7 +1872,7 @@ module pgs_contact_pipe_soft #(
     // pt0_sub173 = wB_z - pt0_mul170   (ready @53/53/53)
     logic [W-1:0] pt0_sub173;
     logic [2:0] fl_pt0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(pt0_sub173), .flags(fl_pt0_sub173)
     );
@@ -1911,7 +1914,7 @@ module pgs_contact_pipe_soft #(
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
@@ -1925,7 +1928,7 @@ module pgs_contact_pipe_soft #(
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
@@ -1939,7 +1942,7 @@ module pgs_contact_pipe_soft #(
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
@@ -1981,7 +1984,7 @@ module pgs_contact_pipe_soft #(
     // pt1_cA_x = pt1_mul181 - pt1_mul182   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul181), .b(dl_pt1_mul182), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
@@ -2023,7 +2026,7 @@ module pgs_contact_pipe_soft #(
     // pt1_cA_y = pt1_mul184 - pt1_mul185   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul184), .b(dl_pt1_mul185), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
@@ -2065,7 +2068,7 @@ module pgs_contact_pipe_soft #(
     // pt1_cA_z = pt1_mul187 - pt1_mul188   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul187), .b(dl_pt1_mul188), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
@@ -2079,7 +2082,7 @@ module pgs_contact_pipe_soft #(
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
@@ -2093,7 +2096,7 @@ module pgs_contact_pipe_soft #(
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
@@ -2107,7 +2110,7 @@ module pgs_contact_pipe_soft #(
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
@@ -2149,7 +2152,7 @@ module pgs_contact_pipe_soft #(
     // pt1_cB_x = pt1_mul193 - pt1_mul194   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
@@ -2191,7 +2194,7 @@ module pgs_contact_pipe_soft #(
     // pt1_cB_y = pt1_mul196 - pt1_mul197   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul196), .b(dl_pt1_mul197), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
@@ -2233,7 +2236,7 @@ module pgs_contact_pipe_soft #(
     // pt1_cB_z = pt1_mul199 - pt1_mul200   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul199), .b(dl_pt1_mul200), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
@@ -2275,7 +2278,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add204 = pt1_mul202 + pt1_mul203   (ready @60/60/60)
     logic [W-1:0] pt1_add204;
     logic [2:0] fl_pt1_add204;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add204 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add204 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul202), .b(dl_pt1_mul203), .sub(1'b0),
         .out_valid(op_valid_nc[115]), .y(pt1_add204), .flags(fl_pt1_add204)
     );
@@ -2303,7 +2306,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add206 = pt1_add204 + pt1_mul205   (ready @64/64/64)
     logic [W-1:0] pt1_add206;
     logic [2:0] fl_pt1_add206;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add206 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add206 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add204), .b(dl_pt1_mul205), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(pt1_add206), .flags(fl_pt1_add206)
     );
@@ -2345,7 +2348,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add209 = pt1_mul207 + pt1_mul208   (ready @60/60/60)
     logic [W-1:0] pt1_add209;
     logic [2:0] fl_pt1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul207), .b(dl_pt1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[120]), .y(pt1_add209), .flags(fl_pt1_add209)
     );
@@ -2373,7 +2376,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add211 = pt1_add209 + pt1_mul210   (ready @64/64/64)
     logic [W-1:0] pt1_add211;
     logic [2:0] fl_pt1_add211;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add211 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add211 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add209), .b(dl_pt1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[122]), .y(pt1_add211), .flags(fl_pt1_add211)
     );
@@ -2387,7 +2390,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub212 = pt1_add206 - pt1_add211   (ready @68/68/68)
     logic [W-1:0] pt1_sub212;
     logic [2:0] fl_pt1_sub212;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub212 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub212 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add206), .b(dl_pt1_add211), .sub(1'b1),
         .out_valid(op_valid_nc[123]), .y(pt1_sub212), .flags(fl_pt1_sub212)
     );
@@ -2429,7 +2432,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add215 = pt1_mul213 + pt1_mul214   (ready @60/60/60)
     logic [W-1:0] pt1_add215;
     logic [2:0] fl_pt1_add215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add215 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul213), .b(dl_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[126]), .y(pt1_add215), .flags(fl_pt1_add215)
     );
@@ -2457,7 +2460,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add217 = pt1_add215 + pt1_mul216   (ready @64/64/64)
     logic [W-1:0] pt1_add217;
     logic [2:0] fl_pt1_add217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add217 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add215), .b(dl_pt1_mul216), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(pt1_add217), .flags(fl_pt1_add217)
     );
@@ -2499,7 +2502,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add220 = pt1_mul218 + pt1_mul219   (ready @60/60/60)
     logic [W-1:0] pt1_add220;
     logic [2:0] fl_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul218), .b(dl_pt1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[131]), .y(pt1_add220), .flags(fl_pt1_add220)
     );
@@ -2527,7 +2530,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add222 = pt1_add220 + pt1_mul221   (ready @64/64/64)
     logic [W-1:0] pt1_add222;
     logic [2:0] fl_pt1_add222;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add222 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add222 (
         .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add220), .b(dl_pt1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[133]), .y(pt1_add222), .flags(fl_pt1_add222)
     );
@@ -2541,7 +2544,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub223 = pt1_add217 - pt1_add222   (ready @68/68/68)
     logic [W-1:0] pt1_sub223;
     logic [2:0] fl_pt1_sub223;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub223 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub223 (
         .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add217), .b(dl_pt1_add222), .sub(1'b1),
         .out_valid(op_valid_nc[134]), .y(pt1_sub223), .flags(fl_pt1_sub223)
     );
@@ -2555,7 +2558,7 @@ module pgs_contact_pipe_soft #(
     // pt1_vrel = pt1_sub212 + pt1_sub223   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub212), .b(dl_pt1_sub223), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
@@ -2569,7 +2572,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add225 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add225;
     logic [2:0] fl_pt1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[136]), .y(pt1_add225), .flags(fl_pt1_add225)
     );
@@ -2611,7 +2614,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add228 = pt1_lam_kept + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add228;
     logic [2:0] fl_pt1_add228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add228 (
         .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_pt1_lam_kept), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[139]), .y(pt1_add228), .flags(fl_pt1_add228)
     );
@@ -2636,7 +2639,7 @@ module pgs_contact_pipe_soft #(
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[141]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
@@ -2783,7 +2786,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add241 = pt0_vA_x + pt1_mul238   (ready @95/95/95)
     logic [W-1:0] pt1_add241;
     logic [2:0] fl_pt1_add241;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add241 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add241 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul238), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add241), .flags(fl_pt1_add241)
     );
@@ -2797,7 +2800,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add242 = pt0_vA_y + pt1_mul239   (ready @95/95/95)
     logic [W-1:0] pt1_add242;
     logic [2:0] fl_pt1_add242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul239), .sub(1'b0),
         .out_valid(op_valid_nc[152]), .y(pt1_add242), .flags(fl_pt1_add242)
     );
@@ -2811,7 +2814,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add243 = pt0_vA_z + pt1_mul240   (ready @95/95/95)
     logic [W-1:0] pt1_add243;
     logic [2:0] fl_pt1_add243;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add243 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add243 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul240), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(pt1_add243), .flags(fl_pt1_add243)
     );
@@ -2888,7 +2891,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add250 = pt0_wA_x + pt1_mul247   (ready @95/95/95)
     logic [W-1:0] pt1_add250;
     logic [2:0] fl_pt1_add250;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add250 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add250 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul247), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(pt1_add250), .flags(fl_pt1_add250)
     );
@@ -2902,7 +2905,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add251 = pt0_wA_y + pt1_mul248   (ready @95/95/95)
     logic [W-1:0] pt1_add251;
     logic [2:0] fl_pt1_add251;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add251 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add251 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul248), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(pt1_add251), .flags(fl_pt1_add251)
     );
@@ -2916,7 +2919,7 @@ module pgs_contact_pipe_soft #(
     // pt1_add252 = pt0_wA_z + pt1_mul249   (ready @95/95/95)
     logic [W-1:0] pt1_add252;
     logic [2:0] fl_pt1_add252;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add252 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_add252 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul249), .sub(1'b0),
         .out_valid(op_valid_nc[159]), .y(pt1_add252), .flags(fl_pt1_add252)
     );
@@ -2993,7 +2996,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub259 = pt0_vB_x - pt1_mul256   (ready @95/95/95)
     logic [W-1:0] pt1_sub259;
     logic [2:0] fl_pt1_sub259;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub259 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub259 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul256), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_sub259), .flags(fl_pt1_sub259)
     );
@@ -3007,7 +3010,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub260 = pt0_vB_y - pt1_mul257   (ready @95/95/95)
     logic [W-1:0] pt1_sub260;
     logic [2:0] fl_pt1_sub260;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub260 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub260 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(pt1_sub260), .flags(fl_pt1_sub260)
     );
@@ -3021,7 +3024,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub261 = pt0_vB_z - pt1_mul258   (ready @95/95/95)
     logic [W-1:0] pt1_sub261;
     logic [2:0] fl_pt1_sub261;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub261 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub261 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul258), .sub(1'b1),
         .out_valid(op_valid_nc[165]), .y(pt1_sub261), .flags(fl_pt1_sub261)
     );
@@ -3098,7 +3101,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub268 = pt0_wB_x - pt1_mul265   (ready @95/95/95)
     logic [W-1:0] pt1_sub268;
     logic [2:0] fl_pt1_sub268;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub268 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub268 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(pt1_sub268), .flags(fl_pt1_sub268)
     );
@@ -3112,7 +3115,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub269 = pt0_wB_y - pt1_mul266   (ready @95/95/95)
     logic [W-1:0] pt1_sub269;
     logic [2:0] fl_pt1_sub269;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub269 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub269 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul266), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(pt1_sub269), .flags(fl_pt1_sub269)
     );
@@ -3126,7 +3129,7 @@ module pgs_contact_pipe_soft #(
     // pt1_sub270 = pt0_wB_z - pt1_mul267   (ready @95/95/95)
     logic [W-1:0] pt1_sub270;
     logic [2:0] fl_pt1_sub270;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub270 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt1_sub270 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul267), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(pt1_sub270), .flags(fl_pt1_sub270)
     );
@@ -3168,7 +3171,7 @@ module pgs_contact_pipe_soft #(
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
@@ -3182,7 +3185,7 @@ module pgs_contact_pipe_soft #(
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
@@ -3196,7 +3199,7 @@ module pgs_contact_pipe_soft #(
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[174]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
@@ -3238,7 +3241,7 @@ module pgs_contact_pipe_soft #(
     // pt2_cA_x = pt2_mul278 - pt2_mul279   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul278), .b(dl_pt2_mul279), .sub(1'b1),
         .out_valid(op_valid_nc[177]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
@@ -3280,7 +3283,7 @@ module pgs_contact_pipe_soft #(
     // pt2_cA_y = pt2_mul281 - pt2_mul282   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul281), .b(dl_pt2_mul282), .sub(1'b1),
         .out_valid(op_valid_nc[180]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
@@ -3322,7 +3325,7 @@ module pgs_contact_pipe_soft #(
     // pt2_cA_z = pt2_mul284 - pt2_mul285   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul284), .b(dl_pt2_mul285), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
@@ -3336,7 +3339,7 @@ module pgs_contact_pipe_soft #(
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
@@ -3350,7 +3353,7 @@ module pgs_contact_pipe_soft #(
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
@@ -3364,7 +3367,7 @@ module pgs_contact_pipe_soft #(
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[186]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
@@ -3406,7 +3409,7 @@ module pgs_contact_pipe_soft #(
     // pt2_cB_x = pt2_mul290 - pt2_mul291   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul290), .b(dl_pt2_mul291), .sub(1'b1),
         .out_valid(op_valid_nc[189]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
@@ -3448,7 +3451,7 @@ module pgs_contact_pipe_soft #(
     // pt2_cB_y = pt2_mul293 - pt2_mul294   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul293), .b(dl_pt2_mul294), .sub(1'b1),
         .out_valid(op_valid_nc[192]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
@@ -3490,7 +3493,7 @@ module pgs_contact_pipe_soft #(
     // pt2_cB_z = pt2_mul296 - pt2_mul297   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul296), .b(dl_pt2_mul297), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
@@ -3532,7 +3535,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add301 = pt2_mul299 + pt2_mul300   (ready @102/102/102)
     logic [W-1:0] pt2_add301;
     logic [2:0] fl_pt2_add301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add301 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul299), .b(dl_pt2_mul300), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt2_add301), .flags(fl_pt2_add301)
     );
@@ -3560,7 +3563,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add303 = pt2_add301 + pt2_mul302   (ready @106/106/106)
     logic [W-1:0] pt2_add303;
     logic [2:0] fl_pt2_add303;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add303 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add303 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add301), .b(dl_pt2_mul302), .sub(1'b0),
         .out_valid(op_valid_nc[200]), .y(pt2_add303), .flags(fl_pt2_add303)
     );
@@ -3602,7 +3605,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add306 = pt2_mul304 + pt2_mul305   (ready @102/102/102)
     logic [W-1:0] pt2_add306;
     logic [2:0] fl_pt2_add306;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add306 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add306 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul304), .b(dl_pt2_mul305), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt2_add306), .flags(fl_pt2_add306)
     );
@@ -3630,7 +3633,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add308 = pt2_add306 + pt2_mul307   (ready @106/106/106)
     logic [W-1:0] pt2_add308;
     logic [2:0] fl_pt2_add308;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add308 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add308 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add306), .b(dl_pt2_mul307), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(pt2_add308), .flags(fl_pt2_add308)
     );
@@ -3644,7 +3647,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub309 = pt2_add303 - pt2_add308   (ready @110/110/110)
     logic [W-1:0] pt2_sub309;
     logic [2:0] fl_pt2_sub309;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub309 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub309 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add303), .b(dl_pt2_add308), .sub(1'b1),
         .out_valid(op_valid_nc[206]), .y(pt2_sub309), .flags(fl_pt2_sub309)
     );
@@ -3686,7 +3689,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add312 = pt2_mul310 + pt2_mul311   (ready @102/102/102)
     logic [W-1:0] pt2_add312;
     logic [2:0] fl_pt2_add312;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add312 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add312 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul310), .b(dl_pt2_mul311), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(pt2_add312), .flags(fl_pt2_add312)
     );
@@ -3714,7 +3717,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add314 = pt2_add312 + pt2_mul313   (ready @106/106/106)
     logic [W-1:0] pt2_add314;
     logic [2:0] fl_pt2_add314;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add314 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add314 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add312), .b(dl_pt2_mul313), .sub(1'b0),
         .out_valid(op_valid_nc[211]), .y(pt2_add314), .flags(fl_pt2_add314)
     );
@@ -3756,7 +3759,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add317 = pt2_mul315 + pt2_mul316   (ready @102/102/102)
     logic [W-1:0] pt2_add317;
     logic [2:0] fl_pt2_add317;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add317 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add317 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul315), .b(dl_pt2_mul316), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(pt2_add317), .flags(fl_pt2_add317)
     );
@@ -3784,7 +3787,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add319 = pt2_add317 + pt2_mul318   (ready @106/106/106)
     logic [W-1:0] pt2_add319;
     logic [2:0] fl_pt2_add319;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add319 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add319 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add317), .b(dl_pt2_mul318), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(pt2_add319), .flags(fl_pt2_add319)
     );
@@ -3798,7 +3801,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub320 = pt2_add314 - pt2_add319   (ready @110/110/110)
     logic [W-1:0] pt2_sub320;
     logic [2:0] fl_pt2_sub320;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub320 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub320 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add314), .b(dl_pt2_add319), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(pt2_sub320), .flags(fl_pt2_sub320)
     );
@@ -3812,7 +3815,7 @@ module pgs_contact_pipe_soft #(
     // pt2_vrel = pt2_sub309 + pt2_sub320   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub309), .b(dl_pt2_sub320), .sub(1'b0),
         .out_valid(op_valid_nc[218]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
@@ -3826,7 +3829,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add322 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add322;
     logic [2:0] fl_pt2_add322;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add322 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add322 (
         .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(pt2_add322), .flags(fl_pt2_add322)
     );
@@ -3868,7 +3871,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add325 = pt2_lam_kept + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add325;
     logic [2:0] fl_pt2_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_pt2_lam_kept), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[222]), .y(pt2_add325), .flags(fl_pt2_add325)
     );
@@ -3893,7 +3896,7 @@ module pgs_contact_pipe_soft #(
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[224]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
@@ -4040,7 +4043,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add338 = pt1_vA_x + pt2_mul335   (ready @137/137/137)
     logic [W-1:0] pt2_add338;
     logic [2:0] fl_pt2_add338;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add338 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add338 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul335), .sub(1'b0),
         .out_valid(op_valid_nc[234]), .y(pt2_add338), .flags(fl_pt2_add338)
     );
@@ -4054,7 +4057,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add339 = pt1_vA_y + pt2_mul336   (ready @137/137/137)
     logic [W-1:0] pt2_add339;
     logic [2:0] fl_pt2_add339;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add339 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add339 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul336), .sub(1'b0),
         .out_valid(op_valid_nc[235]), .y(pt2_add339), .flags(fl_pt2_add339)
     );
@@ -4068,7 +4071,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add340 = pt1_vA_z + pt2_mul337   (ready @137/137/137)
     logic [W-1:0] pt2_add340;
     logic [2:0] fl_pt2_add340;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add340 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add340 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul337), .sub(1'b0),
         .out_valid(op_valid_nc[236]), .y(pt2_add340), .flags(fl_pt2_add340)
     );
@@ -4145,7 +4148,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add347 = pt1_wA_x + pt2_mul344   (ready @137/137/137)
     logic [W-1:0] pt2_add347;
     logic [2:0] fl_pt2_add347;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add347 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add347 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul344), .sub(1'b0),
         .out_valid(op_valid_nc[240]), .y(pt2_add347), .flags(fl_pt2_add347)
     );
@@ -4159,7 +4162,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add348 = pt1_wA_y + pt2_mul345   (ready @137/137/137)
     logic [W-1:0] pt2_add348;
     logic [2:0] fl_pt2_add348;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add348 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add348 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul345), .sub(1'b0),
         .out_valid(op_valid_nc[241]), .y(pt2_add348), .flags(fl_pt2_add348)
     );
@@ -4173,7 +4176,7 @@ module pgs_contact_pipe_soft #(
     // pt2_add349 = pt1_wA_z + pt2_mul346   (ready @137/137/137)
     logic [W-1:0] pt2_add349;
     logic [2:0] fl_pt2_add349;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add349 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_add349 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul346), .sub(1'b0),
         .out_valid(op_valid_nc[242]), .y(pt2_add349), .flags(fl_pt2_add349)
     );
@@ -4250,7 +4253,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub356 = pt1_vB_x - pt2_mul353   (ready @137/137/137)
     logic [W-1:0] pt2_sub356;
     logic [2:0] fl_pt2_sub356;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub356 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub356 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul353), .sub(1'b1),
         .out_valid(op_valid_nc[246]), .y(pt2_sub356), .flags(fl_pt2_sub356)
     );
@@ -4264,7 +4267,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub357 = pt1_vB_y - pt2_mul354   (ready @137/137/137)
     logic [W-1:0] pt2_sub357;
     logic [2:0] fl_pt2_sub357;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub357 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub357 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul354), .sub(1'b1),
         .out_valid(op_valid_nc[247]), .y(pt2_sub357), .flags(fl_pt2_sub357)
     );
@@ -4278,7 +4281,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub358 = pt1_vB_z - pt2_mul355   (ready @137/137/137)
     logic [W-1:0] pt2_sub358;
     logic [2:0] fl_pt2_sub358;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub358 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub358 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul355), .sub(1'b1),
         .out_valid(op_valid_nc[248]), .y(pt2_sub358), .flags(fl_pt2_sub358)
     );
@@ -4355,7 +4358,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub365 = pt1_wB_x - pt2_mul362   (ready @137/137/137)
     logic [W-1:0] pt2_sub365;
     logic [2:0] fl_pt2_sub365;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub365 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub365 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul362), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt2_sub365), .flags(fl_pt2_sub365)
     );
@@ -4369,7 +4372,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub366 = pt1_wB_y - pt2_mul363   (ready @137/137/137)
     logic [W-1:0] pt2_sub366;
     logic [2:0] fl_pt2_sub366;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub366 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub366 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul363), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(pt2_sub366), .flags(fl_pt2_sub366)
     );
@@ -4383,7 +4386,7 @@ module pgs_contact_pipe_soft #(
     // pt2_sub367 = pt1_wB_z - pt2_mul364   (ready @137/137/137)
     logic [W-1:0] pt2_sub367;
     logic [2:0] fl_pt2_sub367;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub367 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt2_sub367 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul364), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(pt2_sub367), .flags(fl_pt2_sub367)
     );
@@ -4425,7 +4428,7 @@ module pgs_contact_pipe_soft #(
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[255]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
@@ -4439,7 +4442,7 @@ module pgs_contact_pipe_soft #(
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[256]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
@@ -4453,7 +4456,7 @@ module pgs_contact_pipe_soft #(
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
@@ -4495,7 +4498,7 @@ module pgs_contact_pipe_soft #(
     // pt3_cA_x = pt3_mul375 - pt3_mul376   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul375), .b(dl_pt3_mul376), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
@@ -4537,7 +4540,7 @@ module pgs_contact_pipe_soft #(
     // pt3_cA_y = pt3_mul378 - pt3_mul379   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul378), .b(dl_pt3_mul379), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
@@ -4579,7 +4582,7 @@ module pgs_contact_pipe_soft #(
     // pt3_cA_z = pt3_mul381 - pt3_mul382   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul381), .b(dl_pt3_mul382), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
@@ -4593,7 +4596,7 @@ module pgs_contact_pipe_soft #(
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[267]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
@@ -4607,7 +4610,7 @@ module pgs_contact_pipe_soft #(
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[268]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
@@ -4621,7 +4624,7 @@ module pgs_contact_pipe_soft #(
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
@@ -4663,7 +4666,7 @@ module pgs_contact_pipe_soft #(
     // pt3_cB_x = pt3_mul387 - pt3_mul388   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul387), .b(dl_pt3_mul388), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
@@ -4705,7 +4708,7 @@ module pgs_contact_pipe_soft #(
     // pt3_cB_y = pt3_mul390 - pt3_mul391   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul390), .b(dl_pt3_mul391), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
@@ -4747,7 +4750,7 @@ module pgs_contact_pipe_soft #(
     // pt3_cB_z = pt3_mul393 - pt3_mul394   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul393), .b(dl_pt3_mul394), .sub(1'b1),
         .out_valid(op_valid_nc[278]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
@@ -4789,7 +4792,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add398 = pt3_mul396 + pt3_mul397   (ready @144/144/144)
     logic [W-1:0] pt3_add398;
     logic [2:0] fl_pt3_add398;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add398 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add398 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul396), .b(dl_pt3_mul397), .sub(1'b0),
         .out_valid(op_valid_nc[281]), .y(pt3_add398), .flags(fl_pt3_add398)
     );
@@ -4817,7 +4820,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add400 = pt3_add398 + pt3_mul399   (ready @148/148/148)
     logic [W-1:0] pt3_add400;
     logic [2:0] fl_pt3_add400;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add400 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add400 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add398), .b(dl_pt3_mul399), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(pt3_add400), .flags(fl_pt3_add400)
     );
@@ -4859,7 +4862,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add403 = pt3_mul401 + pt3_mul402   (ready @144/144/144)
     logic [W-1:0] pt3_add403;
     logic [2:0] fl_pt3_add403;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add403 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add403 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul401), .b(dl_pt3_mul402), .sub(1'b0),
         .out_valid(op_valid_nc[286]), .y(pt3_add403), .flags(fl_pt3_add403)
     );
@@ -4887,7 +4890,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add405 = pt3_add403 + pt3_mul404   (ready @148/148/148)
     logic [W-1:0] pt3_add405;
     logic [2:0] fl_pt3_add405;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add405 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add405 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add403), .b(dl_pt3_mul404), .sub(1'b0),
         .out_valid(op_valid_nc[288]), .y(pt3_add405), .flags(fl_pt3_add405)
     );
@@ -4901,7 +4904,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub406 = pt3_add400 - pt3_add405   (ready @152/152/152)
     logic [W-1:0] pt3_sub406;
     logic [2:0] fl_pt3_sub406;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub406 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub406 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add400), .b(dl_pt3_add405), .sub(1'b1),
         .out_valid(op_valid_nc[289]), .y(pt3_sub406), .flags(fl_pt3_sub406)
     );
@@ -4943,7 +4946,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add409 = pt3_mul407 + pt3_mul408   (ready @144/144/144)
     logic [W-1:0] pt3_add409;
     logic [2:0] fl_pt3_add409;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add409 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add409 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul407), .b(dl_pt3_mul408), .sub(1'b0),
         .out_valid(op_valid_nc[292]), .y(pt3_add409), .flags(fl_pt3_add409)
     );
@@ -4971,7 +4974,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add411 = pt3_add409 + pt3_mul410   (ready @148/148/148)
     logic [W-1:0] pt3_add411;
     logic [2:0] fl_pt3_add411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add411 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add409), .b(dl_pt3_mul410), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt3_add411), .flags(fl_pt3_add411)
     );
@@ -5013,7 +5016,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add414 = pt3_mul412 + pt3_mul413   (ready @144/144/144)
     logic [W-1:0] pt3_add414;
     logic [2:0] fl_pt3_add414;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add414 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add414 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul412), .b(dl_pt3_mul413), .sub(1'b0),
         .out_valid(op_valid_nc[297]), .y(pt3_add414), .flags(fl_pt3_add414)
     );
@@ -5041,7 +5044,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add416 = pt3_add414 + pt3_mul415   (ready @148/148/148)
     logic [W-1:0] pt3_add416;
     logic [2:0] fl_pt3_add416;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add416 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add416 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add414), .b(dl_pt3_mul415), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt3_add416), .flags(fl_pt3_add416)
     );
@@ -5055,7 +5058,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub417 = pt3_add411 - pt3_add416   (ready @152/152/152)
     logic [W-1:0] pt3_sub417;
     logic [2:0] fl_pt3_sub417;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub417 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub417 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add411), .b(dl_pt3_add416), .sub(1'b1),
         .out_valid(op_valid_nc[300]), .y(pt3_sub417), .flags(fl_pt3_sub417)
     );
@@ -5069,7 +5072,7 @@ module pgs_contact_pipe_soft #(
     // pt3_vrel = pt3_sub406 + pt3_sub417   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub406), .b(dl_pt3_sub417), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
@@ -5083,7 +5086,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add419 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add419;
     logic [2:0] fl_pt3_add419;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add419 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add419 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[302]), .y(pt3_add419), .flags(fl_pt3_add419)
     );
@@ -5125,7 +5128,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add422 = pt3_lam_kept + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add422;
     logic [2:0] fl_pt3_add422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add422 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_pt3_lam_kept), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[305]), .y(pt3_add422), .flags(fl_pt3_add422)
     );
@@ -5150,7 +5153,7 @@ module pgs_contact_pipe_soft #(
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[307]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
@@ -5297,7 +5300,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add435 = pt2_vA_x + pt3_mul432   (ready @179/179/179)
     logic [W-1:0] pt3_add435;
     logic [2:0] fl_pt3_add435;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add435 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add435 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul432), .sub(1'b0),
         .out_valid(op_valid_nc[317]), .y(pt3_add435), .flags(fl_pt3_add435)
     );
@@ -5311,7 +5314,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add436 = pt2_vA_y + pt3_mul433   (ready @179/179/179)
     logic [W-1:0] pt3_add436;
     logic [2:0] fl_pt3_add436;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add436 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add436 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul433), .sub(1'b0),
         .out_valid(op_valid_nc[318]), .y(pt3_add436), .flags(fl_pt3_add436)
     );
@@ -5325,7 +5328,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add437 = pt2_vA_z + pt3_mul434   (ready @179/179/179)
     logic [W-1:0] pt3_add437;
     logic [2:0] fl_pt3_add437;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add437 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add437 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul434), .sub(1'b0),
         .out_valid(op_valid_nc[319]), .y(pt3_add437), .flags(fl_pt3_add437)
     );
@@ -5402,7 +5405,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add444 = pt2_wA_x + pt3_mul441   (ready @179/179/179)
     logic [W-1:0] pt3_add444;
     logic [2:0] fl_pt3_add444;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add444 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add444 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul441), .sub(1'b0),
         .out_valid(op_valid_nc[323]), .y(pt3_add444), .flags(fl_pt3_add444)
     );
@@ -5416,7 +5419,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add445 = pt2_wA_y + pt3_mul442   (ready @179/179/179)
     logic [W-1:0] pt3_add445;
     logic [2:0] fl_pt3_add445;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add445 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add445 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul442), .sub(1'b0),
         .out_valid(op_valid_nc[324]), .y(pt3_add445), .flags(fl_pt3_add445)
     );
@@ -5430,7 +5433,7 @@ module pgs_contact_pipe_soft #(
     // pt3_add446 = pt2_wA_z + pt3_mul443   (ready @179/179/179)
     logic [W-1:0] pt3_add446;
     logic [2:0] fl_pt3_add446;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add446 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_add446 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul443), .sub(1'b0),
         .out_valid(op_valid_nc[325]), .y(pt3_add446), .flags(fl_pt3_add446)
     );
@@ -5507,7 +5510,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub453 = pt2_vB_x - pt3_mul450   (ready @179/179/179)
     logic [W-1:0] pt3_sub453;
     logic [2:0] fl_pt3_sub453;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub453 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub453 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul450), .sub(1'b1),
         .out_valid(op_valid_nc[329]), .y(pt3_sub453), .flags(fl_pt3_sub453)
     );
@@ -5521,7 +5524,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub454 = pt2_vB_y - pt3_mul451   (ready @179/179/179)
     logic [W-1:0] pt3_sub454;
     logic [2:0] fl_pt3_sub454;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub454 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub454 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul451), .sub(1'b1),
         .out_valid(op_valid_nc[330]), .y(pt3_sub454), .flags(fl_pt3_sub454)
     );
@@ -5535,7 +5538,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub455 = pt2_vB_z - pt3_mul452   (ready @179/179/179)
     logic [W-1:0] pt3_sub455;
     logic [2:0] fl_pt3_sub455;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub455 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub455 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul452), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(pt3_sub455), .flags(fl_pt3_sub455)
     );
@@ -5612,7 +5615,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub462 = pt2_wB_x - pt3_mul459   (ready @179/179/179)
     logic [W-1:0] pt3_sub462;
     logic [2:0] fl_pt3_sub462;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub462 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub462 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul459), .sub(1'b1),
         .out_valid(op_valid_nc[335]), .y(pt3_sub462), .flags(fl_pt3_sub462)
     );
@@ -5626,7 +5629,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub463 = pt2_wB_y - pt3_mul460   (ready @179/179/179)
     logic [W-1:0] pt3_sub463;
     logic [2:0] fl_pt3_sub463;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub463 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub463 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul460), .sub(1'b1),
         .out_valid(op_valid_nc[336]), .y(pt3_sub463), .flags(fl_pt3_sub463)
     );
@@ -5640,7 +5643,7 @@ module pgs_contact_pipe_soft #(
     // pt3_sub464 = pt2_wB_z - pt3_mul461   (ready @179/179/179)
     logic [W-1:0] pt3_sub464;
     logic [2:0] fl_pt3_sub464;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub464 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pt3_sub464 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul461), .sub(1'b1),
         .out_valid(op_valid_nc[337]), .y(pt3_sub464), .flags(fl_pt3_sub464)
     );

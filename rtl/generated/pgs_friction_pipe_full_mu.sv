@@ -32,6 +32,9 @@ module pgs_friction_pipe_full_mu #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 53,
     localparam int N_OUT    = 14,
@@ -442,7 +445,7 @@ module pgs_friction_pipe_full_mu #(
     // add55 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add55;
     logic [2:0] fl_add55;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add55 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add55 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[0]), .y(add55), .flags(fl_add55)
     );
@@ -456,7 +459,7 @@ module pgs_friction_pipe_full_mu #(
     // add56 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add56;
     logic [2:0] fl_add56;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add56 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add56 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[1]), .y(add56), .flags(fl_add56)
     );
@@ -470,7 +473,7 @@ module pgs_friction_pipe_full_mu #(
     // add57 = add55 + add56   (ready @8/8/8)
     logic [W-1:0] add57;
     logic [2:0] fl_add57;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add57 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add57 (
         .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add55), .b(dl_add56), .sub(1'b0),
         .out_valid(op_valid_nc[2]), .y(add57), .flags(fl_add57)
     );
@@ -505,7 +508,7 @@ module pgs_friction_pipe_full_mu #(
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[4]), .y(rA_x), .flags(fl_rA_x)
     );
@@ -519,7 +522,7 @@ module pgs_friction_pipe_full_mu #(
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[5]), .y(rA_y), .flags(fl_rA_y)
     );
@@ -533,7 +536,7 @@ module pgs_friction_pipe_full_mu #(
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(rA_z), .flags(fl_rA_z)
     );
@@ -547,7 +550,7 @@ module pgs_friction_pipe_full_mu #(
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(rB_x), .flags(fl_rB_x)
     );
@@ -561,7 +564,7 @@ module pgs_friction_pipe_full_mu #(
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(rB_y), .flags(fl_rB_y)
     );
@@ -575,7 +578,7 @@ module pgs_friction_pipe_full_mu #(
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[9]), .y(rB_z), .flags(fl_rB_z)
     );
@@ -617,7 +620,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_cA_x = t0_mul66 - t0_mul67   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul66), .b(dl_t0_mul67), .sub(1'b1),
         .out_valid(op_valid_nc[12]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
@@ -659,7 +662,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_cA_y = t0_mul69 - t0_mul70   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul69), .b(dl_t0_mul70), .sub(1'b1),
         .out_valid(op_valid_nc[15]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
@@ -701,7 +704,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_cA_z = t0_mul72 - t0_mul73   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul72), .b(dl_t0_mul73), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
@@ -743,7 +746,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_cB_x = t0_mul75 - t0_mul76   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul75), .b(dl_t0_mul76), .sub(1'b1),
         .out_valid(op_valid_nc[21]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
@@ -785,7 +788,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_cB_y = t0_mul78 - t0_mul79   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul78), .b(dl_t0_mul79), .sub(1'b1),
         .out_valid(op_valid_nc[24]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
@@ -827,7 +830,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_cB_z = t0_mul81 - t0_mul82   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul81), .b(dl_t0_mul82), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
@@ -869,7 +872,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add86 = t0_mul84 + t0_mul85   (ready @7/7/7)
     logic [W-1:0] t0_add86;
     logic [2:0] fl_t0_add86;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add86 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add86 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul84), .b(dl_t0_mul85), .sub(1'b0),
         .out_valid(op_valid_nc[30]), .y(t0_add86), .flags(fl_t0_add86)
     );
@@ -897,7 +900,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add88 = t0_add86 + t0_mul87   (ready @11/11/11)
     logic [W-1:0] t0_add88;
     logic [2:0] fl_t0_add88;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add88 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add88 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add86), .b(dl_t0_mul87), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(t0_add88), .flags(fl_t0_add88)
     );
@@ -939,7 +942,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add91 = t0_mul89 + t0_mul90   (ready @7/7/7)
     logic [W-1:0] t0_add91;
     logic [2:0] fl_t0_add91;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add91 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add91 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul89), .b(dl_t0_mul90), .sub(1'b0),
         .out_valid(op_valid_nc[35]), .y(t0_add91), .flags(fl_t0_add91)
     );
@@ -967,7 +970,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add93 = t0_add91 + t0_mul92   (ready @11/11/11)
     logic [W-1:0] t0_add93;
     logic [2:0] fl_t0_add93;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add93 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add93 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add91), .b(dl_t0_mul92), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(t0_add93), .flags(fl_t0_add93)
     );
@@ -981,7 +984,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub94 = t0_add88 - t0_add93   (ready @15/15/15)
     logic [W-1:0] t0_sub94;
     logic [2:0] fl_t0_sub94;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub94 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub94 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_add88), .b(dl_t0_add93), .sub(1'b1),
         .out_valid(op_valid_nc[38]), .y(t0_sub94), .flags(fl_t0_sub94)
     );
@@ -1023,7 +1026,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add97 = t0_mul95 + t0_mul96   (ready @18/18/18)
     logic [W-1:0] t0_add97;
     logic [2:0] fl_t0_add97;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add97 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add97 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul95), .b(dl_t0_mul96), .sub(1'b0),
         .out_valid(op_valid_nc[41]), .y(t0_add97), .flags(fl_t0_add97)
     );
@@ -1051,7 +1054,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add99 = t0_add97 + t0_mul98   (ready @22/22/22)
     logic [W-1:0] t0_add99;
     logic [2:0] fl_t0_add99;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add99 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add99 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add97), .b(dl_t0_mul98), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(t0_add99), .flags(fl_t0_add99)
     );
@@ -1093,7 +1096,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add102 = t0_mul100 + t0_mul101   (ready @18/18/18)
     logic [W-1:0] t0_add102;
     logic [2:0] fl_t0_add102;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add102 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add102 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul100), .b(dl_t0_mul101), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(t0_add102), .flags(fl_t0_add102)
     );
@@ -1121,7 +1124,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add104 = t0_add102 + t0_mul103   (ready @22/22/22)
     logic [W-1:0] t0_add104;
     logic [2:0] fl_t0_add104;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add104 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add104 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add102), .b(dl_t0_mul103), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(t0_add104), .flags(fl_t0_add104)
     );
@@ -1135,7 +1138,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub105 = t0_add99 - t0_add104   (ready @26/26/26)
     logic [W-1:0] t0_sub105;
     logic [2:0] fl_t0_sub105;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub105 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub105 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_t0_add99), .b(dl_t0_add104), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(t0_sub105), .flags(fl_t0_sub105)
     );
@@ -1149,7 +1152,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_u = t0_sub94 + t0_sub105   (ready @30/30/30)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_t0_sub94), .b(dl_t0_sub105), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(t0_u), .flags(fl_t0_u)
     );
@@ -1184,7 +1187,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add109 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add109;
     logic [2:0] fl_t0_add109;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add109 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add109 (
         .clk(clk), .rst(rst), .in_valid(valid_q[33]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(t0_add109), .flags(fl_t0_add109)
     );
@@ -1220,7 +1223,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[39]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[55]), .y(t0_delta), .flags(fl_t0_delta)
     );
@@ -1332,7 +1335,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add121 = vA_x + t0_mul118   (ready @50/50/50)
     logic [W-1:0] t0_add121;
     logic [2:0] fl_t0_add121;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add121 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add121 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add121), .flags(fl_t0_add121)
     );
@@ -1346,7 +1349,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add122 = vA_y + t0_mul119   (ready @50/50/50)
     logic [W-1:0] t0_add122;
     logic [2:0] fl_t0_add122;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add122 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add122 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[63]), .y(t0_add122), .flags(fl_t0_add122)
     );
@@ -1360,7 +1363,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add123 = vA_z + t0_mul120   (ready @50/50/50)
     logic [W-1:0] t0_add123;
     logic [2:0] fl_t0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add123), .flags(fl_t0_add123)
     );
@@ -1423,7 +1426,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add129 = t0_mul127 + t0_mul128   (ready @18/18/18)
     logic [W-1:0] t0_add129;
     logic [2:0] fl_t0_add129;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add129 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add129 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul127), .b(dl_t0_mul128), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(t0_add129), .flags(fl_t0_add129)
     );
@@ -1451,7 +1454,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_angA_x = t0_add129 + t0_mul130   (ready @22/22/22)
     logic [W-1:0] t0_angA_x;
     logic [2:0] fl_t0_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add129), .b(dl_t0_mul130), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(t0_angA_x), .flags(fl_t0_angA_x)
     );
@@ -1493,7 +1496,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add134 = t0_mul132 + t0_mul133   (ready @18/18/18)
     logic [W-1:0] t0_add134;
     logic [2:0] fl_t0_add134;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add134 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add134 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul132), .b(dl_t0_mul133), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(t0_add134), .flags(fl_t0_add134)
     );
@@ -1521,7 +1524,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_angA_y = t0_add134 + t0_mul135   (ready @22/22/22)
     logic [W-1:0] t0_angA_y;
     logic [2:0] fl_t0_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add134), .b(dl_t0_mul135), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(t0_angA_y), .flags(fl_t0_angA_y)
     );
@@ -1563,7 +1566,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add139 = t0_mul137 + t0_mul138   (ready @18/18/18)
     logic [W-1:0] t0_add139;
     logic [2:0] fl_t0_add139;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add139 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add139 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul137), .b(dl_t0_mul138), .sub(1'b0),
         .out_valid(op_valid_nc[77]), .y(t0_add139), .flags(fl_t0_add139)
     );
@@ -1591,7 +1594,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_angA_z = t0_add139 + t0_mul140   (ready @22/22/22)
     logic [W-1:0] t0_angA_z;
     logic [2:0] fl_t0_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add139), .b(dl_t0_mul140), .sub(1'b0),
         .out_valid(op_valid_nc[79]), .y(t0_angA_z), .flags(fl_t0_angA_z)
     );
@@ -1647,7 +1650,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add145 = wA_x + t0_mul142   (ready @50/50/50)
     logic [W-1:0] t0_add145;
     logic [2:0] fl_t0_add145;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add145 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add145 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul142), .sub(1'b0),
         .out_valid(op_valid_nc[83]), .y(t0_add145), .flags(fl_t0_add145)
     );
@@ -1661,7 +1664,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add146 = wA_y + t0_mul143   (ready @50/50/50)
     logic [W-1:0] t0_add146;
     logic [2:0] fl_t0_add146;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add146 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add146 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[84]), .y(t0_add146), .flags(fl_t0_add146)
     );
@@ -1675,7 +1678,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add147 = wA_z + t0_mul144   (ready @50/50/50)
     logic [W-1:0] t0_add147;
     logic [2:0] fl_t0_add147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add147 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul144), .sub(1'b0),
         .out_valid(op_valid_nc[85]), .y(t0_add147), .flags(fl_t0_add147)
     );
@@ -1794,7 +1797,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub157 = vB_x - t0_mul154   (ready @50/50/50)
     logic [W-1:0] t0_sub157;
     logic [2:0] fl_t0_sub157;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub157 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub157 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul154), .sub(1'b1),
         .out_valid(op_valid_nc[92]), .y(t0_sub157), .flags(fl_t0_sub157)
     );
@@ -1808,7 +1811,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub158 = vB_y - t0_mul155   (ready @50/50/50)
     logic [W-1:0] t0_sub158;
     logic [2:0] fl_t0_sub158;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub158 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub158 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul155), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(t0_sub158), .flags(fl_t0_sub158)
     );
@@ -1822,7 +1825,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub159 = vB_z - t0_mul156   (ready @50/50/50)
     logic [W-1:0] t0_sub159;
     logic [2:0] fl_t0_sub159;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub159 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub159 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul156), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(t0_sub159), .flags(fl_t0_sub159)
     );
@@ -1885,7 +1888,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add165 = t0_mul163 + t0_mul164   (ready @18/18/18)
     logic [W-1:0] t0_add165;
     logic [2:0] fl_t0_add165;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add165 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add165 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul163), .b(dl_t0_mul164), .sub(1'b0),
         .out_valid(op_valid_nc[97]), .y(t0_add165), .flags(fl_t0_add165)
     );
@@ -1913,7 +1916,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_angB_x = t0_add165 + t0_mul166   (ready @22/22/22)
     logic [W-1:0] t0_angB_x;
     logic [2:0] fl_t0_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add165), .b(dl_t0_mul166), .sub(1'b0),
         .out_valid(op_valid_nc[99]), .y(t0_angB_x), .flags(fl_t0_angB_x)
     );
@@ -1955,7 +1958,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add170 = t0_mul168 + t0_mul169   (ready @18/18/18)
     logic [W-1:0] t0_add170;
     logic [2:0] fl_t0_add170;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add170 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add170 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul168), .b(dl_t0_mul169), .sub(1'b0),
         .out_valid(op_valid_nc[102]), .y(t0_add170), .flags(fl_t0_add170)
     );
@@ -1983,7 +1986,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_angB_y = t0_add170 + t0_mul171   (ready @22/22/22)
     logic [W-1:0] t0_angB_y;
     logic [2:0] fl_t0_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add170), .b(dl_t0_mul171), .sub(1'b0),
         .out_valid(op_valid_nc[104]), .y(t0_angB_y), .flags(fl_t0_angB_y)
     );
@@ -2025,7 +2028,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_add175 = t0_mul173 + t0_mul174   (ready @18/18/18)
     logic [W-1:0] t0_add175;
     logic [2:0] fl_t0_add175;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add175 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add175 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul173), .b(dl_t0_mul174), .sub(1'b0),
         .out_valid(op_valid_nc[107]), .y(t0_add175), .flags(fl_t0_add175)
     );
@@ -2053,7 +2056,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_angB_z = t0_add175 + t0_mul176   (ready @22/22/22)
     logic [W-1:0] t0_angB_z;
     logic [2:0] fl_t0_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add175), .b(dl_t0_mul176), .sub(1'b0),
         .out_valid(op_valid_nc[109]), .y(t0_angB_z), .flags(fl_t0_angB_z)
     );
@@ -2109,7 +2112,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub181 = wB_x - t0_mul178   (ready @50/50/50)
     logic [W-1:0] t0_sub181;
     logic [2:0] fl_t0_sub181;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub181 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub181 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul178), .sub(1'b1),
         .out_valid(op_valid_nc[113]), .y(t0_sub181), .flags(fl_t0_sub181)
     );
@@ -2123,7 +2126,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub182 = wB_y - t0_mul179   (ready @50/50/50)
     logic [W-1:0] t0_sub182;
     logic [2:0] fl_t0_sub182;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub182 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub182 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[114]), .y(t0_sub182), .flags(fl_t0_sub182)
     );
@@ -2137,7 +2140,7 @@ module pgs_friction_pipe_full_mu #(
     // t0_sub183 = wB_z - t0_mul180   (ready @50/50/50)
     logic [W-1:0] t0_sub183;
     logic [2:0] fl_t0_sub183;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub183 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub183 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul180), .sub(1'b1),
         .out_valid(op_valid_nc[115]), .y(t0_sub183), .flags(fl_t0_sub183)
     );
@@ -2200,7 +2203,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_cA_x = t1_mul187 - t1_mul188   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul187), .b(dl_t1_mul188), .sub(1'b1),
         .out_valid(op_valid_nc[118]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
@@ -2242,7 +2245,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_cA_y = t1_mul190 - t1_mul191   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul190), .b(dl_t1_mul191), .sub(1'b1),
         .out_valid(op_valid_nc[121]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
@@ -2284,7 +2287,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_cA_z = t1_mul193 - t1_mul194   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul193), .b(dl_t1_mul194), .sub(1'b1),
         .out_valid(op_valid_nc[124]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
@@ -2326,7 +2329,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_cB_x = t1_mul196 - t1_mul197   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul196), .b(dl_t1_mul197), .sub(1'b1),
         .out_valid(op_valid_nc[127]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
@@ -2368,7 +2371,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_cB_y = t1_mul199 - t1_mul200   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul199), .b(dl_t1_mul200), .sub(1'b1),
         .out_valid(op_valid_nc[130]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
@@ -2410,7 +2413,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_cB_z = t1_mul202 - t1_mul203   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul202), .b(dl_t1_mul203), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
@@ -2452,7 +2455,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add207 = t1_mul205 + t1_mul206   (ready @57/57/57)
     logic [W-1:0] t1_add207;
     logic [2:0] fl_t1_add207;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add207 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add207 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul205), .b(dl_t1_mul206), .sub(1'b0),
         .out_valid(op_valid_nc[136]), .y(t1_add207), .flags(fl_t1_add207)
     );
@@ -2480,7 +2483,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add209 = t1_add207 + t1_mul208   (ready @61/61/61)
     logic [W-1:0] t1_add209;
     logic [2:0] fl_t1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add207), .b(dl_t1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[138]), .y(t1_add209), .flags(fl_t1_add209)
     );
@@ -2522,7 +2525,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add212 = t1_mul210 + t1_mul211   (ready @57/57/57)
     logic [W-1:0] t1_add212;
     logic [2:0] fl_t1_add212;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add212 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add212 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul210), .b(dl_t1_mul211), .sub(1'b0),
         .out_valid(op_valid_nc[141]), .y(t1_add212), .flags(fl_t1_add212)
     );
@@ -2550,7 +2553,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add214 = t1_add212 + t1_mul213   (ready @61/61/61)
     logic [W-1:0] t1_add214;
     logic [2:0] fl_t1_add214;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add214 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add214 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add212), .b(dl_t1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[143]), .y(t1_add214), .flags(fl_t1_add214)
     );
@@ -2564,7 +2567,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub215 = t1_add209 - t1_add214   (ready @65/65/65)
     logic [W-1:0] t1_sub215;
     logic [2:0] fl_t1_sub215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub215 (
         .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add209), .b(dl_t1_add214), .sub(1'b1),
         .out_valid(op_valid_nc[144]), .y(t1_sub215), .flags(fl_t1_sub215)
     );
@@ -2606,7 +2609,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add218 = t1_mul216 + t1_mul217   (ready @57/57/57)
     logic [W-1:0] t1_add218;
     logic [2:0] fl_t1_add218;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add218 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add218 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul216), .b(dl_t1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[147]), .y(t1_add218), .flags(fl_t1_add218)
     );
@@ -2634,7 +2637,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add220 = t1_add218 + t1_mul219   (ready @61/61/61)
     logic [W-1:0] t1_add220;
     logic [2:0] fl_t1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add218), .b(dl_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(t1_add220), .flags(fl_t1_add220)
     );
@@ -2676,7 +2679,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add223 = t1_mul221 + t1_mul222   (ready @57/57/57)
     logic [W-1:0] t1_add223;
     logic [2:0] fl_t1_add223;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add223 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add223 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul221), .b(dl_t1_mul222), .sub(1'b0),
         .out_valid(op_valid_nc[152]), .y(t1_add223), .flags(fl_t1_add223)
     );
@@ -2704,7 +2707,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add225 = t1_add223 + t1_mul224   (ready @61/61/61)
     logic [W-1:0] t1_add225;
     logic [2:0] fl_t1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add223), .b(dl_t1_mul224), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(t1_add225), .flags(fl_t1_add225)
     );
@@ -2718,7 +2721,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub226 = t1_add220 - t1_add225   (ready @65/65/65)
     logic [W-1:0] t1_sub226;
     logic [2:0] fl_t1_sub226;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub226 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub226 (
         .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add220), .b(dl_t1_add225), .sub(1'b1),
         .out_valid(op_valid_nc[155]), .y(t1_sub226), .flags(fl_t1_sub226)
     );
@@ -2732,7 +2735,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_u = t1_sub215 + t1_sub226   (ready @69/69/69)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[65]), .a(dl_t1_sub215), .b(dl_t1_sub226), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(t1_u), .flags(fl_t1_u)
     );
@@ -2767,7 +2770,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add230 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add230;
     logic [2:0] fl_t1_add230;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add230 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add230 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(t1_add230), .flags(fl_t1_add230)
     );
@@ -2803,7 +2806,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[78]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(t1_delta), .flags(fl_t1_delta)
     );
@@ -2915,7 +2918,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add242 = t0_vA_x + t1_mul239   (ready @89/89/89)
     logic [W-1:0] t1_add242;
     logic [2:0] fl_t1_add242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul239), .sub(1'b0),
         .out_valid(op_valid_nc[168]), .y(t1_add242), .flags(fl_t1_add242)
     );
@@ -2929,7 +2932,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add243 = t0_vA_y + t1_mul240   (ready @89/89/89)
     logic [W-1:0] t1_add243;
     logic [2:0] fl_t1_add243;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add243 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add243 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul240), .sub(1'b0),
         .out_valid(op_valid_nc[169]), .y(t1_add243), .flags(fl_t1_add243)
     );
@@ -2943,7 +2946,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add244 = t0_vA_z + t1_mul241   (ready @89/89/89)
     logic [W-1:0] t1_add244;
     logic [2:0] fl_t1_add244;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add244 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add244 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul241), .sub(1'b0),
         .out_valid(op_valid_nc[170]), .y(t1_add244), .flags(fl_t1_add244)
     );
@@ -3006,7 +3009,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add250 = t1_mul248 + t1_mul249   (ready @18/18/18)
     logic [W-1:0] t1_add250;
     logic [2:0] fl_t1_add250;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add250 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add250 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul248), .b(dl_t1_mul249), .sub(1'b0),
         .out_valid(op_valid_nc[173]), .y(t1_add250), .flags(fl_t1_add250)
     );
@@ -3034,7 +3037,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_angA_x = t1_add250 + t1_mul251   (ready @22/22/22)
     logic [W-1:0] t1_angA_x;
     logic [2:0] fl_t1_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add250), .b(dl_t1_mul251), .sub(1'b0),
         .out_valid(op_valid_nc[175]), .y(t1_angA_x), .flags(fl_t1_angA_x)
     );
@@ -3076,7 +3079,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add255 = t1_mul253 + t1_mul254   (ready @18/18/18)
     logic [W-1:0] t1_add255;
     logic [2:0] fl_t1_add255;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add255 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add255 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul253), .b(dl_t1_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(t1_add255), .flags(fl_t1_add255)
     );
@@ -3104,7 +3107,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_angA_y = t1_add255 + t1_mul256   (ready @22/22/22)
     logic [W-1:0] t1_angA_y;
     logic [2:0] fl_t1_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add255), .b(dl_t1_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[180]), .y(t1_angA_y), .flags(fl_t1_angA_y)
     );
@@ -3146,7 +3149,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add260 = t1_mul258 + t1_mul259   (ready @18/18/18)
     logic [W-1:0] t1_add260;
     logic [2:0] fl_t1_add260;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add260 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add260 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul258), .b(dl_t1_mul259), .sub(1'b0),
         .out_valid(op_valid_nc[183]), .y(t1_add260), .flags(fl_t1_add260)
     );
@@ -3174,7 +3177,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_angA_z = t1_add260 + t1_mul261   (ready @22/22/22)
     logic [W-1:0] t1_angA_z;
     logic [2:0] fl_t1_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add260), .b(dl_t1_mul261), .sub(1'b0),
         .out_valid(op_valid_nc[185]), .y(t1_angA_z), .flags(fl_t1_angA_z)
     );
@@ -3230,7 +3233,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add266 = t0_wA_x + t1_mul263   (ready @89/89/89)
     logic [W-1:0] t1_add266;
     logic [2:0] fl_t1_add266;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add266 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add266 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul263), .sub(1'b0),
         .out_valid(op_valid_nc[189]), .y(t1_add266), .flags(fl_t1_add266)
     );
@@ -3244,7 +3247,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add267 = t0_wA_y + t1_mul264   (ready @89/89/89)
     logic [W-1:0] t1_add267;
     logic [2:0] fl_t1_add267;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add267 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add267 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul264), .sub(1'b0),
         .out_valid(op_valid_nc[190]), .y(t1_add267), .flags(fl_t1_add267)
     );
@@ -3258,7 +3261,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add268 = t0_wA_z + t1_mul265   (ready @89/89/89)
     logic [W-1:0] t1_add268;
     logic [2:0] fl_t1_add268;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add268 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add268 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul265), .sub(1'b0),
         .out_valid(op_valid_nc[191]), .y(t1_add268), .flags(fl_t1_add268)
     );
@@ -3377,7 +3380,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub278 = t0_vB_x - t1_mul275   (ready @89/89/89)
     logic [W-1:0] t1_sub278;
     logic [2:0] fl_t1_sub278;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub278 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub278 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[198]), .y(t1_sub278), .flags(fl_t1_sub278)
     );
@@ -3391,7 +3394,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub279 = t0_vB_y - t1_mul276   (ready @89/89/89)
     logic [W-1:0] t1_sub279;
     logic [2:0] fl_t1_sub279;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub279 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub279 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul276), .sub(1'b1),
         .out_valid(op_valid_nc[199]), .y(t1_sub279), .flags(fl_t1_sub279)
     );
@@ -3405,7 +3408,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub280 = t0_vB_z - t1_mul277   (ready @89/89/89)
     logic [W-1:0] t1_sub280;
     logic [2:0] fl_t1_sub280;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub280 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub280 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul277), .sub(1'b1),
         .out_valid(op_valid_nc[200]), .y(t1_sub280), .flags(fl_t1_sub280)
     );
@@ -3468,7 +3471,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add286 = t1_mul284 + t1_mul285   (ready @18/18/18)
     logic [W-1:0] t1_add286;
     logic [2:0] fl_t1_add286;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add286 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add286 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul284), .b(dl_t1_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(t1_add286), .flags(fl_t1_add286)
     );
@@ -3496,7 +3499,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_angB_x = t1_add286 + t1_mul287   (ready @22/22/22)
     logic [W-1:0] t1_angB_x;
     logic [2:0] fl_t1_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add286), .b(dl_t1_mul287), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(t1_angB_x), .flags(fl_t1_angB_x)
     );
@@ -3538,7 +3541,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add291 = t1_mul289 + t1_mul290   (ready @18/18/18)
     logic [W-1:0] t1_add291;
     logic [2:0] fl_t1_add291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add291 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul289), .b(dl_t1_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[208]), .y(t1_add291), .flags(fl_t1_add291)
     );
@@ -3566,7 +3569,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_angB_y = t1_add291 + t1_mul292   (ready @22/22/22)
     logic [W-1:0] t1_angB_y;
     logic [2:0] fl_t1_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add291), .b(dl_t1_mul292), .sub(1'b0),
         .out_valid(op_valid_nc[210]), .y(t1_angB_y), .flags(fl_t1_angB_y)
     );
@@ -3608,7 +3611,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_add296 = t1_mul294 + t1_mul295   (ready @18/18/18)
     logic [W-1:0] t1_add296;
     logic [2:0] fl_t1_add296;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add296 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add296 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul294), .b(dl_t1_mul295), .sub(1'b0),
         .out_valid(op_valid_nc[213]), .y(t1_add296), .flags(fl_t1_add296)
     );
@@ -3636,7 +3639,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_angB_z = t1_add296 + t1_mul297   (ready @22/22/22)
     logic [W-1:0] t1_angB_z;
     logic [2:0] fl_t1_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add296), .b(dl_t1_mul297), .sub(1'b0),
         .out_valid(op_valid_nc[215]), .y(t1_angB_z), .flags(fl_t1_angB_z)
     );
@@ -3692,7 +3695,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub302 = t0_wB_x - t1_mul299   (ready @89/89/89)
     logic [W-1:0] t1_sub302;
     logic [2:0] fl_t1_sub302;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub302 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub302 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul299), .sub(1'b1),
         .out_valid(op_valid_nc[219]), .y(t1_sub302), .flags(fl_t1_sub302)
     );
@@ -3706,7 +3709,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub303 = t0_wB_y - t1_mul300   (ready @89/89/89)
     logic [W-1:0] t1_sub303;
     logic [2:0] fl_t1_sub303;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub303 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub303 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul300), .sub(1'b1),
         .out_valid(op_valid_nc[220]), .y(t1_sub303), .flags(fl_t1_sub303)
     );
@@ -3720,7 +3723,7 @@ module pgs_friction_pipe_full_mu #(
     // t1_sub304 = t0_wB_z - t1_mul301   (ready @89/89/89)
     logic [W-1:0] t1_sub304;
     logic [2:0] fl_t1_sub304;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub304 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub304 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul301), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(t1_sub304), .flags(fl_t1_sub304)
     );
@@ -3783,7 +3786,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_add311 = spin_mul309 + spin_mul310   (ready @96/96/96)
     logic [W-1:0] spin_add311;
     logic [2:0] fl_spin_add311;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add311 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add311 (
         .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul309), .b(dl_spin_mul310), .sub(1'b0),
         .out_valid(op_valid_nc[224]), .y(spin_add311), .flags(fl_spin_add311)
     );
@@ -3811,7 +3814,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_add313 = spin_add311 + spin_mul312   (ready @100/100/100)
     logic [W-1:0] spin_add313;
     logic [2:0] fl_spin_add313;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add313 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add313 (
         .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add311), .b(dl_spin_mul312), .sub(1'b0),
         .out_valid(op_valid_nc[226]), .y(spin_add313), .flags(fl_spin_add313)
     );
@@ -3881,7 +3884,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_wA_damped_x = t1_wA_x - spin_mul315   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul315), .sub(1'b1),
         .out_valid(op_valid_nc[231]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
@@ -3895,7 +3898,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_wA_damped_y = t1_wA_y - spin_mul316   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul316), .sub(1'b1),
         .out_valid(op_valid_nc[232]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
@@ -3909,7 +3912,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_wA_damped_z = t1_wA_z - spin_mul317   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul317), .sub(1'b1),
         .out_valid(op_valid_nc[233]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
@@ -3951,7 +3954,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_add323 = spin_mul321 + spin_mul322   (ready @96/96/96)
     logic [W-1:0] spin_add323;
     logic [2:0] fl_spin_add323;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add323 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add323 (
         .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul321), .b(dl_spin_mul322), .sub(1'b0),
         .out_valid(op_valid_nc[236]), .y(spin_add323), .flags(fl_spin_add323)
     );
@@ -3979,7 +3982,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_add325 = spin_add323 + spin_mul324   (ready @100/100/100)
     logic [W-1:0] spin_add325;
     logic [2:0] fl_spin_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add323), .b(dl_spin_mul324), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(spin_add325), .flags(fl_spin_add325)
     );
@@ -4049,7 +4052,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_wB_damped_x = t1_wB_x - spin_mul327   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul327), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
@@ -4063,7 +4066,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_wB_damped_y = t1_wB_y - spin_mul328   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul328), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
@@ -4077,7 +4080,7 @@ module pgs_friction_pipe_full_mu #(
     // spin_wB_damped_z = t1_wB_z - spin_mul329   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul329), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );

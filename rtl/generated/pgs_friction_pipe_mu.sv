@@ -31,6 +31,9 @@ module pgs_friction_pipe_mu #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 47,
     localparam int N_OUT    = 14,
@@ -405,7 +408,7 @@ module pgs_friction_pipe_mu #(
     // add49 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add49;
     logic [2:0] fl_add49;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add49 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add49 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[0]), .y(add49), .flags(fl_add49)
     );
@@ -419,7 +422,7 @@ module pgs_friction_pipe_mu #(
     // add50 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add50;
     logic [2:0] fl_add50;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add50 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add50 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[1]), .y(add50), .flags(fl_add50)
     );
@@ -433,7 +436,7 @@ module pgs_friction_pipe_mu #(
     // add51 = add49 + add50   (ready @8/8/8)
     logic [W-1:0] add51;
     logic [2:0] fl_add51;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add51 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add51 (
         .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add49), .b(dl_add50), .sub(1'b0),
         .out_valid(op_valid_nc[2]), .y(add51), .flags(fl_add51)
     );
@@ -468,7 +471,7 @@ module pgs_friction_pipe_mu #(
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[4]), .y(rA_x), .flags(fl_rA_x)
     );
@@ -482,7 +485,7 @@ module pgs_friction_pipe_mu #(
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[5]), .y(rA_y), .flags(fl_rA_y)
     );
@@ -496,7 +499,7 @@ module pgs_friction_pipe_mu #(
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(rA_z), .flags(fl_rA_z)
     );
@@ -510,7 +513,7 @@ module pgs_friction_pipe_mu #(
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(rB_x), .flags(fl_rB_x)
     );
@@ -524,7 +527,7 @@ module pgs_friction_pipe_mu #(
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(rB_y), .flags(fl_rB_y)
     );
@@ -538,7 +541,7 @@ module pgs_friction_pipe_mu #(
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[9]), .y(rB_z), .flags(fl_rB_z)
     );
@@ -580,7 +583,7 @@ module pgs_friction_pipe_mu #(
     // t0_cA_x = t0_mul60 - t0_mul61   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul60), .b(dl_t0_mul61), .sub(1'b1),
         .out_valid(op_valid_nc[12]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
@@ -622,7 +625,7 @@ module pgs_friction_pipe_mu #(
     // t0_cA_y = t0_mul63 - t0_mul64   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul63), .b(dl_t0_mul64), .sub(1'b1),
         .out_valid(op_valid_nc[15]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
@@ -664,7 +667,7 @@ module pgs_friction_pipe_mu #(
     // t0_cA_z = t0_mul66 - t0_mul67   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul66), .b(dl_t0_mul67), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
@@ -706,7 +709,7 @@ module pgs_friction_pipe_mu #(
     // t0_cB_x = t0_mul69 - t0_mul70   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul69), .b(dl_t0_mul70), .sub(1'b1),
         .out_valid(op_valid_nc[21]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
@@ -748,7 +751,7 @@ module pgs_friction_pipe_mu #(
     // t0_cB_y = t0_mul72 - t0_mul73   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul72), .b(dl_t0_mul73), .sub(1'b1),
         .out_valid(op_valid_nc[24]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
@@ -790,7 +793,7 @@ module pgs_friction_pipe_mu #(
     // t0_cB_z = t0_mul75 - t0_mul76   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul75), .b(dl_t0_mul76), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
@@ -832,7 +835,7 @@ module pgs_friction_pipe_mu #(
     // t0_add80 = t0_mul78 + t0_mul79   (ready @7/7/7)
     logic [W-1:0] t0_add80;
     logic [2:0] fl_t0_add80;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add80 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add80 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul78), .b(dl_t0_mul79), .sub(1'b0),
         .out_valid(op_valid_nc[30]), .y(t0_add80), .flags(fl_t0_add80)
     );
@@ -860,7 +863,7 @@ module pgs_friction_pipe_mu #(
     // t0_add82 = t0_add80 + t0_mul81   (ready @11/11/11)
     logic [W-1:0] t0_add82;
     logic [2:0] fl_t0_add82;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add82 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add82 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add80), .b(dl_t0_mul81), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(t0_add82), .flags(fl_t0_add82)
     );
@@ -902,7 +905,7 @@ module pgs_friction_pipe_mu #(
     // t0_add85 = t0_mul83 + t0_mul84   (ready @7/7/7)
     logic [W-1:0] t0_add85;
     logic [2:0] fl_t0_add85;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add85 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add85 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul83), .b(dl_t0_mul84), .sub(1'b0),
         .out_valid(op_valid_nc[35]), .y(t0_add85), .flags(fl_t0_add85)
     );
@@ -930,7 +933,7 @@ module pgs_friction_pipe_mu #(
     // t0_add87 = t0_add85 + t0_mul86   (ready @11/11/11)
     logic [W-1:0] t0_add87;
     logic [2:0] fl_t0_add87;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add87 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add87 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add85), .b(dl_t0_mul86), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(t0_add87), .flags(fl_t0_add87)
     );
@@ -944,7 +947,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub88 = t0_add82 - t0_add87   (ready @15/15/15)
     logic [W-1:0] t0_sub88;
     logic [2:0] fl_t0_sub88;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub88 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub88 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_add82), .b(dl_t0_add87), .sub(1'b1),
         .out_valid(op_valid_nc[38]), .y(t0_sub88), .flags(fl_t0_sub88)
     );
@@ -986,7 +989,7 @@ module pgs_friction_pipe_mu #(
     // t0_add91 = t0_mul89 + t0_mul90   (ready @18/18/18)
     logic [W-1:0] t0_add91;
     logic [2:0] fl_t0_add91;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add91 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add91 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul89), .b(dl_t0_mul90), .sub(1'b0),
         .out_valid(op_valid_nc[41]), .y(t0_add91), .flags(fl_t0_add91)
     );
@@ -1014,7 +1017,7 @@ module pgs_friction_pipe_mu #(
     // t0_add93 = t0_add91 + t0_mul92   (ready @22/22/22)
     logic [W-1:0] t0_add93;
     logic [2:0] fl_t0_add93;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add93 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add93 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add91), .b(dl_t0_mul92), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(t0_add93), .flags(fl_t0_add93)
     );
@@ -1056,7 +1059,7 @@ module pgs_friction_pipe_mu #(
     // t0_add96 = t0_mul94 + t0_mul95   (ready @18/18/18)
     logic [W-1:0] t0_add96;
     logic [2:0] fl_t0_add96;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add96 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add96 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul94), .b(dl_t0_mul95), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(t0_add96), .flags(fl_t0_add96)
     );
@@ -1084,7 +1087,7 @@ module pgs_friction_pipe_mu #(
     // t0_add98 = t0_add96 + t0_mul97   (ready @22/22/22)
     logic [W-1:0] t0_add98;
     logic [2:0] fl_t0_add98;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add98 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add98 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add96), .b(dl_t0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(t0_add98), .flags(fl_t0_add98)
     );
@@ -1098,7 +1101,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub99 = t0_add93 - t0_add98   (ready @26/26/26)
     logic [W-1:0] t0_sub99;
     logic [2:0] fl_t0_sub99;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub99 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub99 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_t0_add93), .b(dl_t0_add98), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(t0_sub99), .flags(fl_t0_sub99)
     );
@@ -1112,7 +1115,7 @@ module pgs_friction_pipe_mu #(
     // t0_u = t0_sub88 + t0_sub99   (ready @30/30/30)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_t0_sub88), .b(dl_t0_sub99), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(t0_u), .flags(fl_t0_u)
     );
@@ -1147,7 +1150,7 @@ module pgs_friction_pipe_mu #(
     // t0_add103 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add103;
     logic [2:0] fl_t0_add103;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add103 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add103 (
         .clk(clk), .rst(rst), .in_valid(valid_q[33]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(t0_add103), .flags(fl_t0_add103)
     );
@@ -1183,7 +1186,7 @@ module pgs_friction_pipe_mu #(
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[39]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[55]), .y(t0_delta), .flags(fl_t0_delta)
     );
@@ -1295,7 +1298,7 @@ module pgs_friction_pipe_mu #(
     // t0_add115 = vA_x + t0_mul112   (ready @50/50/50)
     logic [W-1:0] t0_add115;
     logic [2:0] fl_t0_add115;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add115 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add115 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul112), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add115), .flags(fl_t0_add115)
     );
@@ -1309,7 +1312,7 @@ module pgs_friction_pipe_mu #(
     // t0_add116 = vA_y + t0_mul113   (ready @50/50/50)
     logic [W-1:0] t0_add116;
     logic [2:0] fl_t0_add116;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add116 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add116 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[63]), .y(t0_add116), .flags(fl_t0_add116)
     );
@@ -1323,7 +1326,7 @@ module pgs_friction_pipe_mu #(
     // t0_add117 = vA_z + t0_mul114   (ready @50/50/50)
     logic [W-1:0] t0_add117;
     logic [2:0] fl_t0_add117;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add117 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add117 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul114), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add117), .flags(fl_t0_add117)
     );
@@ -1442,7 +1445,7 @@ module pgs_friction_pipe_mu #(
     // t0_add127 = wA_x + t0_mul124   (ready @50/50/50)
     logic [W-1:0] t0_add127;
     logic [2:0] fl_t0_add127;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add127 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add127 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[71]), .y(t0_add127), .flags(fl_t0_add127)
     );
@@ -1456,7 +1459,7 @@ module pgs_friction_pipe_mu #(
     // t0_add128 = wA_y + t0_mul125   (ready @50/50/50)
     logic [W-1:0] t0_add128;
     logic [2:0] fl_t0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul125), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(t0_add128), .flags(fl_t0_add128)
     );
@@ -1470,7 +1473,7 @@ module pgs_friction_pipe_mu #(
     // t0_add129 = wA_z + t0_mul126   (ready @50/50/50)
     logic [W-1:0] t0_add129;
     logic [2:0] fl_t0_add129;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add129 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add129 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(t0_add129), .flags(fl_t0_add129)
     );
@@ -1589,7 +1592,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub139 = vB_x - t0_mul136   (ready @50/50/50)
     logic [W-1:0] t0_sub139;
     logic [2:0] fl_t0_sub139;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub139 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub139 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul136), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(t0_sub139), .flags(fl_t0_sub139)
     );
@@ -1603,7 +1606,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub140 = vB_y - t0_mul137   (ready @50/50/50)
     logic [W-1:0] t0_sub140;
     logic [2:0] fl_t0_sub140;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub140 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub140 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul137), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(t0_sub140), .flags(fl_t0_sub140)
     );
@@ -1617,7 +1620,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub141 = vB_z - t0_mul138   (ready @50/50/50)
     logic [W-1:0] t0_sub141;
     logic [2:0] fl_t0_sub141;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub141 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub141 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul138), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(t0_sub141), .flags(fl_t0_sub141)
     );
@@ -1736,7 +1739,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub151 = wB_x - t0_mul148   (ready @50/50/50)
     logic [W-1:0] t0_sub151;
     logic [2:0] fl_t0_sub151;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub151 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub151 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul148), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(t0_sub151), .flags(fl_t0_sub151)
     );
@@ -1750,7 +1753,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub152 = wB_y - t0_mul149   (ready @50/50/50)
     logic [W-1:0] t0_sub152;
     logic [2:0] fl_t0_sub152;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub152 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub152 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul149), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(t0_sub152), .flags(fl_t0_sub152)
     );
@@ -1764,7 +1767,7 @@ module pgs_friction_pipe_mu #(
     // t0_sub153 = wB_z - t0_mul150   (ready @50/50/50)
     logic [W-1:0] t0_sub153;
     logic [2:0] fl_t0_sub153;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub153 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub153 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul150), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(t0_sub153), .flags(fl_t0_sub153)
     );
@@ -1827,7 +1830,7 @@ module pgs_friction_pipe_mu #(
     // t1_cA_x = t1_mul157 - t1_mul158   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul157), .b(dl_t1_mul158), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
@@ -1869,7 +1872,7 @@ module pgs_friction_pipe_mu #(
     // t1_cA_y = t1_mul160 - t1_mul161   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul160), .b(dl_t1_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
@@ -1911,7 +1914,7 @@ module pgs_friction_pipe_mu #(
     // t1_cA_z = t1_mul163 - t1_mul164   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul163), .b(dl_t1_mul164), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
@@ -1953,7 +1956,7 @@ module pgs_friction_pipe_mu #(
     // t1_cB_x = t1_mul166 - t1_mul167   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul166), .b(dl_t1_mul167), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
@@ -1995,7 +1998,7 @@ module pgs_friction_pipe_mu #(
     // t1_cB_y = t1_mul169 - t1_mul170   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul169), .b(dl_t1_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
@@ -2037,7 +2040,7 @@ module pgs_friction_pipe_mu #(
     // t1_cB_z = t1_mul172 - t1_mul173   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul172), .b(dl_t1_mul173), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
@@ -2079,7 +2082,7 @@ module pgs_friction_pipe_mu #(
     // t1_add177 = t1_mul175 + t1_mul176   (ready @57/57/57)
     logic [W-1:0] t1_add177;
     logic [2:0] fl_t1_add177;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add177 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add177 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul175), .b(dl_t1_mul176), .sub(1'b0),
         .out_valid(op_valid_nc[112]), .y(t1_add177), .flags(fl_t1_add177)
     );
@@ -2107,7 +2110,7 @@ module pgs_friction_pipe_mu #(
     // t1_add179 = t1_add177 + t1_mul178   (ready @61/61/61)
     logic [W-1:0] t1_add179;
     logic [2:0] fl_t1_add179;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add179 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add179 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add177), .b(dl_t1_mul178), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(t1_add179), .flags(fl_t1_add179)
     );
@@ -2149,7 +2152,7 @@ module pgs_friction_pipe_mu #(
     // t1_add182 = t1_mul180 + t1_mul181   (ready @57/57/57)
     logic [W-1:0] t1_add182;
     logic [2:0] fl_t1_add182;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add182 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add182 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul180), .b(dl_t1_mul181), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(t1_add182), .flags(fl_t1_add182)
     );
@@ -2177,7 +2180,7 @@ module pgs_friction_pipe_mu #(
     // t1_add184 = t1_add182 + t1_mul183   (ready @61/61/61)
     logic [W-1:0] t1_add184;
     logic [2:0] fl_t1_add184;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add184 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add184 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add182), .b(dl_t1_mul183), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(t1_add184), .flags(fl_t1_add184)
     );
@@ -2191,7 +2194,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub185 = t1_add179 - t1_add184   (ready @65/65/65)
     logic [W-1:0] t1_sub185;
     logic [2:0] fl_t1_sub185;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub185 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub185 (
         .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add179), .b(dl_t1_add184), .sub(1'b1),
         .out_valid(op_valid_nc[120]), .y(t1_sub185), .flags(fl_t1_sub185)
     );
@@ -2233,7 +2236,7 @@ module pgs_friction_pipe_mu #(
     // t1_add188 = t1_mul186 + t1_mul187   (ready @57/57/57)
     logic [W-1:0] t1_add188;
     logic [2:0] fl_t1_add188;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add188 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add188 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul186), .b(dl_t1_mul187), .sub(1'b0),
         .out_valid(op_valid_nc[123]), .y(t1_add188), .flags(fl_t1_add188)
     );
@@ -2261,7 +2264,7 @@ module pgs_friction_pipe_mu #(
     // t1_add190 = t1_add188 + t1_mul189   (ready @61/61/61)
     logic [W-1:0] t1_add190;
     logic [2:0] fl_t1_add190;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add190 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add190 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add188), .b(dl_t1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(t1_add190), .flags(fl_t1_add190)
     );
@@ -2303,7 +2306,7 @@ module pgs_friction_pipe_mu #(
     // t1_add193 = t1_mul191 + t1_mul192   (ready @57/57/57)
     logic [W-1:0] t1_add193;
     logic [2:0] fl_t1_add193;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add193 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add193 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul191), .b(dl_t1_mul192), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(t1_add193), .flags(fl_t1_add193)
     );
@@ -2331,7 +2334,7 @@ module pgs_friction_pipe_mu #(
     // t1_add195 = t1_add193 + t1_mul194   (ready @61/61/61)
     logic [W-1:0] t1_add195;
     logic [2:0] fl_t1_add195;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add195 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add195 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add193), .b(dl_t1_mul194), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(t1_add195), .flags(fl_t1_add195)
     );
@@ -2345,7 +2348,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub196 = t1_add190 - t1_add195   (ready @65/65/65)
     logic [W-1:0] t1_sub196;
     logic [2:0] fl_t1_sub196;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub196 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub196 (
         .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add190), .b(dl_t1_add195), .sub(1'b1),
         .out_valid(op_valid_nc[131]), .y(t1_sub196), .flags(fl_t1_sub196)
     );
@@ -2359,7 +2362,7 @@ module pgs_friction_pipe_mu #(
     // t1_u = t1_sub185 + t1_sub196   (ready @69/69/69)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[65]), .a(dl_t1_sub185), .b(dl_t1_sub196), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(t1_u), .flags(fl_t1_u)
     );
@@ -2394,7 +2397,7 @@ module pgs_friction_pipe_mu #(
     // t1_add200 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add200;
     logic [2:0] fl_t1_add200;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add200 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add200 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(t1_add200), .flags(fl_t1_add200)
     );
@@ -2430,7 +2433,7 @@ module pgs_friction_pipe_mu #(
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[78]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[137]), .y(t1_delta), .flags(fl_t1_delta)
     );
@@ -2542,7 +2545,7 @@ module pgs_friction_pipe_mu #(
     // t1_add212 = t0_vA_x + t1_mul209   (ready @89/89/89)
     logic [W-1:0] t1_add212;
     logic [2:0] fl_t1_add212;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add212 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add212 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul209), .sub(1'b0),
         .out_valid(op_valid_nc[144]), .y(t1_add212), .flags(fl_t1_add212)
     );
@@ -2556,7 +2559,7 @@ module pgs_friction_pipe_mu #(
     // t1_add213 = t0_vA_y + t1_mul210   (ready @89/89/89)
     logic [W-1:0] t1_add213;
     logic [2:0] fl_t1_add213;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add213 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add213 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[145]), .y(t1_add213), .flags(fl_t1_add213)
     );
@@ -2570,7 +2573,7 @@ module pgs_friction_pipe_mu #(
     // t1_add214 = t0_vA_z + t1_mul211   (ready @89/89/89)
     logic [W-1:0] t1_add214;
     logic [2:0] fl_t1_add214;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add214 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add214 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul211), .sub(1'b0),
         .out_valid(op_valid_nc[146]), .y(t1_add214), .flags(fl_t1_add214)
     );
@@ -2689,7 +2692,7 @@ module pgs_friction_pipe_mu #(
     // t1_add224 = t0_wA_x + t1_mul221   (ready @89/89/89)
     logic [W-1:0] t1_add224;
     logic [2:0] fl_t1_add224;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add224 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add224 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(t1_add224), .flags(fl_t1_add224)
     );
@@ -2703,7 +2706,7 @@ module pgs_friction_pipe_mu #(
     // t1_add225 = t0_wA_y + t1_mul222   (ready @89/89/89)
     logic [W-1:0] t1_add225;
     logic [2:0] fl_t1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul222), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(t1_add225), .flags(fl_t1_add225)
     );
@@ -2717,7 +2720,7 @@ module pgs_friction_pipe_mu #(
     // t1_add226 = t0_wA_z + t1_mul223   (ready @89/89/89)
     logic [W-1:0] t1_add226;
     logic [2:0] fl_t1_add226;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add226 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add226 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(t1_add226), .flags(fl_t1_add226)
     );
@@ -2836,7 +2839,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub236 = t0_vB_x - t1_mul233   (ready @89/89/89)
     logic [W-1:0] t1_sub236;
     logic [2:0] fl_t1_sub236;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub236 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub236 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul233), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(t1_sub236), .flags(fl_t1_sub236)
     );
@@ -2850,7 +2853,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub237 = t0_vB_y - t1_mul234   (ready @89/89/89)
     logic [W-1:0] t1_sub237;
     logic [2:0] fl_t1_sub237;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub237 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub237 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul234), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(t1_sub237), .flags(fl_t1_sub237)
     );
@@ -2864,7 +2867,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub238 = t0_vB_z - t1_mul235   (ready @89/89/89)
     logic [W-1:0] t1_sub238;
     logic [2:0] fl_t1_sub238;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub238 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub238 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul235), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(t1_sub238), .flags(fl_t1_sub238)
     );
@@ -2983,7 +2986,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub248 = t0_wB_x - t1_mul245   (ready @89/89/89)
     logic [W-1:0] t1_sub248;
     logic [2:0] fl_t1_sub248;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub248 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub248 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul245), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(t1_sub248), .flags(fl_t1_sub248)
     );
@@ -2997,7 +3000,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub249 = t0_wB_y - t1_mul246   (ready @89/89/89)
     logic [W-1:0] t1_sub249;
     logic [2:0] fl_t1_sub249;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub249 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub249 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul246), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(t1_sub249), .flags(fl_t1_sub249)
     );
@@ -3011,7 +3014,7 @@ module pgs_friction_pipe_mu #(
     // t1_sub250 = t0_wB_z - t1_mul247   (ready @89/89/89)
     logic [W-1:0] t1_sub250;
     logic [2:0] fl_t1_sub250;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub250 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub250 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul247), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(t1_sub250), .flags(fl_t1_sub250)
     );
@@ -3074,7 +3077,7 @@ module pgs_friction_pipe_mu #(
     // spin_add257 = spin_mul255 + spin_mul256   (ready @96/96/96)
     logic [W-1:0] spin_add257;
     logic [2:0] fl_spin_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul255), .b(dl_spin_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(spin_add257), .flags(fl_spin_add257)
     );
@@ -3102,7 +3105,7 @@ module pgs_friction_pipe_mu #(
     // spin_add259 = spin_add257 + spin_mul258   (ready @100/100/100)
     logic [W-1:0] spin_add259;
     logic [2:0] fl_spin_add259;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add259 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add259 (
         .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add257), .b(dl_spin_mul258), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(spin_add259), .flags(fl_spin_add259)
     );
@@ -3172,7 +3175,7 @@ module pgs_friction_pipe_mu #(
     // spin_wA_damped_x = t1_wA_x - spin_mul261   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul261), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
@@ -3186,7 +3189,7 @@ module pgs_friction_pipe_mu #(
     // spin_wA_damped_y = t1_wA_y - spin_mul262   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul262), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
@@ -3200,7 +3203,7 @@ module pgs_friction_pipe_mu #(
     // spin_wA_damped_z = t1_wA_z - spin_mul263   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul263), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
@@ -3242,7 +3245,7 @@ module pgs_friction_pipe_mu #(
     // spin_add269 = spin_mul267 + spin_mul268   (ready @96/96/96)
     logic [W-1:0] spin_add269;
     logic [2:0] fl_spin_add269;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add269 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add269 (
         .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul267), .b(dl_spin_mul268), .sub(1'b0),
         .out_valid(op_valid_nc[188]), .y(spin_add269), .flags(fl_spin_add269)
     );
@@ -3270,7 +3273,7 @@ module pgs_friction_pipe_mu #(
     // spin_add271 = spin_add269 + spin_mul270   (ready @100/100/100)
     logic [W-1:0] spin_add271;
     logic [2:0] fl_spin_add271;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add271 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add271 (
         .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add269), .b(dl_spin_mul270), .sub(1'b0),
         .out_valid(op_valid_nc[190]), .y(spin_add271), .flags(fl_spin_add271)
     );
@@ -3340,7 +3343,7 @@ module pgs_friction_pipe_mu #(
     // spin_wB_damped_x = t1_wB_x - spin_mul273   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul273), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
@@ -3354,7 +3357,7 @@ module pgs_friction_pipe_mu #(
     // spin_wB_damped_y = t1_wB_y - spin_mul274   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul274), .sub(1'b1),
         .out_valid(op_valid_nc[196]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
@@ -3368,7 +3371,7 @@ module pgs_friction_pipe_mu #(
     // spin_wB_damped_z = t1_wB_z - spin_mul275   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[197]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );

@@ -31,6 +31,9 @@ module pgs_friction_pipe_scalar_mu #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 43,
     localparam int N_OUT    = 14,
@@ -381,7 +384,7 @@ module pgs_friction_pipe_scalar_mu #(
     // add45 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add45;
     logic [2:0] fl_add45;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add45 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add45 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[0]), .y(add45), .flags(fl_add45)
     );
@@ -395,7 +398,7 @@ module pgs_friction_pipe_scalar_mu #(
     // add46 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add46;
     logic [2:0] fl_add46;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add46 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add46 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[1]), .y(add46), .flags(fl_add46)
     );
@@ -409,7 +412,7 @@ module pgs_friction_pipe_scalar_mu #(
     // add47 = add45 + add46   (ready @8/8/8)
     logic [W-1:0] add47;
     logic [2:0] fl_add47;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add47 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add47 (
         .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add45), .b(dl_add46), .sub(1'b0),
         .out_valid(op_valid_nc[2]), .y(add47), .flags(fl_add47)
     );
@@ -444,7 +447,7 @@ module pgs_friction_pipe_scalar_mu #(
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[4]), .y(rA_x), .flags(fl_rA_x)
     );
@@ -458,7 +461,7 @@ module pgs_friction_pipe_scalar_mu #(
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[5]), .y(rA_y), .flags(fl_rA_y)
     );
@@ -472,7 +475,7 @@ module pgs_friction_pipe_scalar_mu #(
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(rA_z), .flags(fl_rA_z)
     );
@@ -486,7 +489,7 @@ module pgs_friction_pipe_scalar_mu #(
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(rB_x), .flags(fl_rB_x)
     );
@@ -500,7 +503,7 @@ module pgs_friction_pipe_scalar_mu #(
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(rB_y), .flags(fl_rB_y)
     );
@@ -514,7 +517,7 @@ module pgs_friction_pipe_scalar_mu #(
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[9]), .y(rB_z), .flags(fl_rB_z)
     );
@@ -556,7 +559,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_cA_x = t0_mul56 - t0_mul57   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul56), .b(dl_t0_mul57), .sub(1'b1),
         .out_valid(op_valid_nc[12]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
@@ -598,7 +601,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_cA_y = t0_mul59 - t0_mul60   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul59), .b(dl_t0_mul60), .sub(1'b1),
         .out_valid(op_valid_nc[15]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
@@ -640,7 +643,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_cA_z = t0_mul62 - t0_mul63   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul62), .b(dl_t0_mul63), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
@@ -682,7 +685,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_cB_x = t0_mul65 - t0_mul66   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul65), .b(dl_t0_mul66), .sub(1'b1),
         .out_valid(op_valid_nc[21]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
@@ -724,7 +727,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_cB_y = t0_mul68 - t0_mul69   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul68), .b(dl_t0_mul69), .sub(1'b1),
         .out_valid(op_valid_nc[24]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
@@ -766,7 +769,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_cB_z = t0_mul71 - t0_mul72   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul71), .b(dl_t0_mul72), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
@@ -808,7 +811,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add76 = t0_mul74 + t0_mul75   (ready @7/7/7)
     logic [W-1:0] t0_add76;
     logic [2:0] fl_t0_add76;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add76 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add76 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul74), .b(dl_t0_mul75), .sub(1'b0),
         .out_valid(op_valid_nc[30]), .y(t0_add76), .flags(fl_t0_add76)
     );
@@ -836,7 +839,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add78 = t0_add76 + t0_mul77   (ready @11/11/11)
     logic [W-1:0] t0_add78;
     logic [2:0] fl_t0_add78;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add78 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add78 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add76), .b(dl_t0_mul77), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(t0_add78), .flags(fl_t0_add78)
     );
@@ -878,7 +881,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add81 = t0_mul79 + t0_mul80   (ready @7/7/7)
     logic [W-1:0] t0_add81;
     logic [2:0] fl_t0_add81;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add81 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add81 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul79), .b(dl_t0_mul80), .sub(1'b0),
         .out_valid(op_valid_nc[35]), .y(t0_add81), .flags(fl_t0_add81)
     );
@@ -906,7 +909,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add83 = t0_add81 + t0_mul82   (ready @11/11/11)
     logic [W-1:0] t0_add83;
     logic [2:0] fl_t0_add83;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add83 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add83 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add81), .b(dl_t0_mul82), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(t0_add83), .flags(fl_t0_add83)
     );
@@ -920,7 +923,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub84 = t0_add78 - t0_add83   (ready @15/15/15)
     logic [W-1:0] t0_sub84;
     logic [2:0] fl_t0_sub84;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub84 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub84 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_add78), .b(dl_t0_add83), .sub(1'b1),
         .out_valid(op_valid_nc[38]), .y(t0_sub84), .flags(fl_t0_sub84)
     );
@@ -962,7 +965,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add87 = t0_mul85 + t0_mul86   (ready @18/18/18)
     logic [W-1:0] t0_add87;
     logic [2:0] fl_t0_add87;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add87 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add87 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul85), .b(dl_t0_mul86), .sub(1'b0),
         .out_valid(op_valid_nc[41]), .y(t0_add87), .flags(fl_t0_add87)
     );
@@ -990,7 +993,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add89 = t0_add87 + t0_mul88   (ready @22/22/22)
     logic [W-1:0] t0_add89;
     logic [2:0] fl_t0_add89;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add89 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add89 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add87), .b(dl_t0_mul88), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(t0_add89), .flags(fl_t0_add89)
     );
@@ -1032,7 +1035,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add92 = t0_mul90 + t0_mul91   (ready @18/18/18)
     logic [W-1:0] t0_add92;
     logic [2:0] fl_t0_add92;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add92 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add92 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul90), .b(dl_t0_mul91), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(t0_add92), .flags(fl_t0_add92)
     );
@@ -1060,7 +1063,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add94 = t0_add92 + t0_mul93   (ready @22/22/22)
     logic [W-1:0] t0_add94;
     logic [2:0] fl_t0_add94;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add94 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add94 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add92), .b(dl_t0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(t0_add94), .flags(fl_t0_add94)
     );
@@ -1074,7 +1077,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub95 = t0_add89 - t0_add94   (ready @26/26/26)
     logic [W-1:0] t0_sub95;
     logic [2:0] fl_t0_sub95;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub95 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub95 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_t0_add89), .b(dl_t0_add94), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(t0_sub95), .flags(fl_t0_sub95)
     );
@@ -1088,7 +1091,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_u = t0_sub84 + t0_sub95   (ready @30/30/30)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_t0_sub84), .b(dl_t0_sub95), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(t0_u), .flags(fl_t0_u)
     );
@@ -1123,7 +1126,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add99 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add99;
     logic [2:0] fl_t0_add99;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add99 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add99 (
         .clk(clk), .rst(rst), .in_valid(valid_q[33]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(t0_add99), .flags(fl_t0_add99)
     );
@@ -1159,7 +1162,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[39]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[55]), .y(t0_delta), .flags(fl_t0_delta)
     );
@@ -1271,7 +1274,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add111 = vA_x + t0_mul108   (ready @50/50/50)
     logic [W-1:0] t0_add111;
     logic [2:0] fl_t0_add111;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add111 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add111 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add111), .flags(fl_t0_add111)
     );
@@ -1285,7 +1288,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add112 = vA_y + t0_mul109   (ready @50/50/50)
     logic [W-1:0] t0_add112;
     logic [2:0] fl_t0_add112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add112 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul109), .sub(1'b0),
         .out_valid(op_valid_nc[63]), .y(t0_add112), .flags(fl_t0_add112)
     );
@@ -1299,7 +1302,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add113 = vA_z + t0_mul110   (ready @50/50/50)
     logic [W-1:0] t0_add113;
     logic [2:0] fl_t0_add113;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add113 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add113 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul110), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add113), .flags(fl_t0_add113)
     );
@@ -1418,7 +1421,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add123 = wA_x + t0_mul120   (ready @50/50/50)
     logic [W-1:0] t0_add123;
     logic [2:0] fl_t0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[71]), .y(t0_add123), .flags(fl_t0_add123)
     );
@@ -1432,7 +1435,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add124 = wA_y + t0_mul121   (ready @50/50/50)
     logic [W-1:0] t0_add124;
     logic [2:0] fl_t0_add124;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add124 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add124 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(t0_add124), .flags(fl_t0_add124)
     );
@@ -1446,7 +1449,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_add125 = wA_z + t0_mul122   (ready @50/50/50)
     logic [W-1:0] t0_add125;
     logic [2:0] fl_t0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(t0_add125), .flags(fl_t0_add125)
     );
@@ -1565,7 +1568,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub135 = vB_x - t0_mul132   (ready @50/50/50)
     logic [W-1:0] t0_sub135;
     logic [2:0] fl_t0_sub135;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub135 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub135 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul132), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(t0_sub135), .flags(fl_t0_sub135)
     );
@@ -1579,7 +1582,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub136 = vB_y - t0_mul133   (ready @50/50/50)
     logic [W-1:0] t0_sub136;
     logic [2:0] fl_t0_sub136;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub136 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub136 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul133), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(t0_sub136), .flags(fl_t0_sub136)
     );
@@ -1593,7 +1596,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub137 = vB_z - t0_mul134   (ready @50/50/50)
     logic [W-1:0] t0_sub137;
     logic [2:0] fl_t0_sub137;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub137 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub137 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul134), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(t0_sub137), .flags(fl_t0_sub137)
     );
@@ -1712,7 +1715,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub147 = wB_x - t0_mul144   (ready @50/50/50)
     logic [W-1:0] t0_sub147;
     logic [2:0] fl_t0_sub147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub147 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul144), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(t0_sub147), .flags(fl_t0_sub147)
     );
@@ -1726,7 +1729,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub148 = wB_y - t0_mul145   (ready @50/50/50)
     logic [W-1:0] t0_sub148;
     logic [2:0] fl_t0_sub148;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub148 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub148 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul145), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(t0_sub148), .flags(fl_t0_sub148)
     );
@@ -1740,7 +1743,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t0_sub149 = wB_z - t0_mul146   (ready @50/50/50)
     logic [W-1:0] t0_sub149;
     logic [2:0] fl_t0_sub149;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub149 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub149 (
         .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul146), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(t0_sub149), .flags(fl_t0_sub149)
     );
@@ -1803,7 +1806,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_cA_x = t1_mul153 - t1_mul154   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul153), .b(dl_t1_mul154), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
@@ -1845,7 +1848,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_cA_y = t1_mul156 - t1_mul157   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul156), .b(dl_t1_mul157), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
@@ -1887,7 +1890,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_cA_z = t1_mul159 - t1_mul160   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul159), .b(dl_t1_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
@@ -1929,7 +1932,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_cB_x = t1_mul162 - t1_mul163   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul162), .b(dl_t1_mul163), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
@@ -1971,7 +1974,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_cB_y = t1_mul165 - t1_mul166   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul165), .b(dl_t1_mul166), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
@@ -2013,7 +2016,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_cB_z = t1_mul168 - t1_mul169   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul168), .b(dl_t1_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
@@ -2055,7 +2058,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add173 = t1_mul171 + t1_mul172   (ready @57/57/57)
     logic [W-1:0] t1_add173;
     logic [2:0] fl_t1_add173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add173 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul171), .b(dl_t1_mul172), .sub(1'b0),
         .out_valid(op_valid_nc[112]), .y(t1_add173), .flags(fl_t1_add173)
     );
@@ -2083,7 +2086,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add175 = t1_add173 + t1_mul174   (ready @61/61/61)
     logic [W-1:0] t1_add175;
     logic [2:0] fl_t1_add175;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add175 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add175 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add173), .b(dl_t1_mul174), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(t1_add175), .flags(fl_t1_add175)
     );
@@ -2125,7 +2128,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add178 = t1_mul176 + t1_mul177   (ready @57/57/57)
     logic [W-1:0] t1_add178;
     logic [2:0] fl_t1_add178;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add178 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add178 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul176), .b(dl_t1_mul177), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(t1_add178), .flags(fl_t1_add178)
     );
@@ -2153,7 +2156,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add180 = t1_add178 + t1_mul179   (ready @61/61/61)
     logic [W-1:0] t1_add180;
     logic [2:0] fl_t1_add180;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add180 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add180 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add178), .b(dl_t1_mul179), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(t1_add180), .flags(fl_t1_add180)
     );
@@ -2167,7 +2170,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub181 = t1_add175 - t1_add180   (ready @65/65/65)
     logic [W-1:0] t1_sub181;
     logic [2:0] fl_t1_sub181;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub181 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub181 (
         .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add175), .b(dl_t1_add180), .sub(1'b1),
         .out_valid(op_valid_nc[120]), .y(t1_sub181), .flags(fl_t1_sub181)
     );
@@ -2209,7 +2212,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add184 = t1_mul182 + t1_mul183   (ready @57/57/57)
     logic [W-1:0] t1_add184;
     logic [2:0] fl_t1_add184;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add184 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add184 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul182), .b(dl_t1_mul183), .sub(1'b0),
         .out_valid(op_valid_nc[123]), .y(t1_add184), .flags(fl_t1_add184)
     );
@@ -2237,7 +2240,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add186 = t1_add184 + t1_mul185   (ready @61/61/61)
     logic [W-1:0] t1_add186;
     logic [2:0] fl_t1_add186;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add186 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add186 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add184), .b(dl_t1_mul185), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(t1_add186), .flags(fl_t1_add186)
     );
@@ -2279,7 +2282,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add189 = t1_mul187 + t1_mul188   (ready @57/57/57)
     logic [W-1:0] t1_add189;
     logic [2:0] fl_t1_add189;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add189 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add189 (
         .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul187), .b(dl_t1_mul188), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(t1_add189), .flags(fl_t1_add189)
     );
@@ -2307,7 +2310,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add191 = t1_add189 + t1_mul190   (ready @61/61/61)
     logic [W-1:0] t1_add191;
     logic [2:0] fl_t1_add191;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add191 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add191 (
         .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add189), .b(dl_t1_mul190), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(t1_add191), .flags(fl_t1_add191)
     );
@@ -2321,7 +2324,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub192 = t1_add186 - t1_add191   (ready @65/65/65)
     logic [W-1:0] t1_sub192;
     logic [2:0] fl_t1_sub192;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub192 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub192 (
         .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add186), .b(dl_t1_add191), .sub(1'b1),
         .out_valid(op_valid_nc[131]), .y(t1_sub192), .flags(fl_t1_sub192)
     );
@@ -2335,7 +2338,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_u = t1_sub181 + t1_sub192   (ready @69/69/69)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[65]), .a(dl_t1_sub181), .b(dl_t1_sub192), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(t1_u), .flags(fl_t1_u)
     );
@@ -2370,7 +2373,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add196 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add196;
     logic [2:0] fl_t1_add196;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add196 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add196 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(t1_add196), .flags(fl_t1_add196)
     );
@@ -2406,7 +2409,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[78]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[137]), .y(t1_delta), .flags(fl_t1_delta)
     );
@@ -2518,7 +2521,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add208 = t0_vA_x + t1_mul205   (ready @89/89/89)
     logic [W-1:0] t1_add208;
     logic [2:0] fl_t1_add208;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add208 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add208 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul205), .sub(1'b0),
         .out_valid(op_valid_nc[144]), .y(t1_add208), .flags(fl_t1_add208)
     );
@@ -2532,7 +2535,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add209 = t0_vA_y + t1_mul206   (ready @89/89/89)
     logic [W-1:0] t1_add209;
     logic [2:0] fl_t1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul206), .sub(1'b0),
         .out_valid(op_valid_nc[145]), .y(t1_add209), .flags(fl_t1_add209)
     );
@@ -2546,7 +2549,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add210 = t0_vA_z + t1_mul207   (ready @89/89/89)
     logic [W-1:0] t1_add210;
     logic [2:0] fl_t1_add210;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add210 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add210 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul207), .sub(1'b0),
         .out_valid(op_valid_nc[146]), .y(t1_add210), .flags(fl_t1_add210)
     );
@@ -2665,7 +2668,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add220 = t0_wA_x + t1_mul217   (ready @89/89/89)
     logic [W-1:0] t1_add220;
     logic [2:0] fl_t1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(t1_add220), .flags(fl_t1_add220)
     );
@@ -2679,7 +2682,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add221 = t0_wA_y + t1_mul218   (ready @89/89/89)
     logic [W-1:0] t1_add221;
     logic [2:0] fl_t1_add221;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add221 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add221 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul218), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(t1_add221), .flags(fl_t1_add221)
     );
@@ -2693,7 +2696,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_add222 = t0_wA_z + t1_mul219   (ready @89/89/89)
     logic [W-1:0] t1_add222;
     logic [2:0] fl_t1_add222;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add222 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add222 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(t1_add222), .flags(fl_t1_add222)
     );
@@ -2812,7 +2815,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub232 = t0_vB_x - t1_mul229   (ready @89/89/89)
     logic [W-1:0] t1_sub232;
     logic [2:0] fl_t1_sub232;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub232 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub232 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul229), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(t1_sub232), .flags(fl_t1_sub232)
     );
@@ -2826,7 +2829,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub233 = t0_vB_y - t1_mul230   (ready @89/89/89)
     logic [W-1:0] t1_sub233;
     logic [2:0] fl_t1_sub233;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub233 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub233 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul230), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(t1_sub233), .flags(fl_t1_sub233)
     );
@@ -2840,7 +2843,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub234 = t0_vB_z - t1_mul231   (ready @89/89/89)
     logic [W-1:0] t1_sub234;
     logic [2:0] fl_t1_sub234;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub234 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub234 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul231), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(t1_sub234), .flags(fl_t1_sub234)
     );
@@ -2959,7 +2962,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub244 = t0_wB_x - t1_mul241   (ready @89/89/89)
     logic [W-1:0] t1_sub244;
     logic [2:0] fl_t1_sub244;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub244 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub244 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul241), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(t1_sub244), .flags(fl_t1_sub244)
     );
@@ -2973,7 +2976,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub245 = t0_wB_y - t1_mul242   (ready @89/89/89)
     logic [W-1:0] t1_sub245;
     logic [2:0] fl_t1_sub245;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub245 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub245 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul242), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(t1_sub245), .flags(fl_t1_sub245)
     );
@@ -2987,7 +2990,7 @@ module pgs_friction_pipe_scalar_mu #(
     // t1_sub246 = t0_wB_z - t1_mul243   (ready @89/89/89)
     logic [W-1:0] t1_sub246;
     logic [2:0] fl_t1_sub246;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub246 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub246 (
         .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul243), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(t1_sub246), .flags(fl_t1_sub246)
     );
@@ -3050,7 +3053,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_add253 = spin_mul251 + spin_mul252   (ready @96/96/96)
     logic [W-1:0] spin_add253;
     logic [2:0] fl_spin_add253;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add253 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add253 (
         .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul251), .b(dl_spin_mul252), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(spin_add253), .flags(fl_spin_add253)
     );
@@ -3078,7 +3081,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_add255 = spin_add253 + spin_mul254   (ready @100/100/100)
     logic [W-1:0] spin_add255;
     logic [2:0] fl_spin_add255;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add255 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add255 (
         .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add253), .b(dl_spin_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(spin_add255), .flags(fl_spin_add255)
     );
@@ -3148,7 +3151,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_wA_damped_x = t1_wA_x - spin_mul257   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
@@ -3162,7 +3165,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_wA_damped_y = t1_wA_y - spin_mul258   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul258), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
@@ -3176,7 +3179,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_wA_damped_z = t1_wA_z - spin_mul259   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul259), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
@@ -3218,7 +3221,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_add265 = spin_mul263 + spin_mul264   (ready @96/96/96)
     logic [W-1:0] spin_add265;
     logic [2:0] fl_spin_add265;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add265 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add265 (
         .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul263), .b(dl_spin_mul264), .sub(1'b0),
         .out_valid(op_valid_nc[188]), .y(spin_add265), .flags(fl_spin_add265)
     );
@@ -3246,7 +3249,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_add267 = spin_add265 + spin_mul266   (ready @100/100/100)
     logic [W-1:0] spin_add267;
     logic [2:0] fl_spin_add267;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add267 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add267 (
         .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add265), .b(dl_spin_mul266), .sub(1'b0),
         .out_valid(op_valid_nc[190]), .y(spin_add267), .flags(fl_spin_add267)
     );
@@ -3316,7 +3319,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_wB_damped_x = t1_wB_x - spin_mul269   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul269), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
@@ -3330,7 +3333,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_wB_damped_y = t1_wB_y - spin_mul270   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul270), .sub(1'b1),
         .out_valid(op_valid_nc[196]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
@@ -3344,7 +3347,7 @@ module pgs_friction_pipe_scalar_mu #(
     // spin_wB_damped_z = t1_wB_z - spin_mul271   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul271), .sub(1'b1),
         .out_valid(op_valid_nc[197]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );

@@ -28,6 +28,9 @@ module pgs_friction_pipe_tb #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 40,
     localparam int N_OUT    = 14,
@@ -439,7 +442,7 @@ module pgs_friction_pipe_tb #(
     // basis_a_z = basis_mul51 + basis_mul52   (ready @7/7/7)
     logic [W-1:0] basis_a_z;
     logic [2:0] fl_basis_a_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_a_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_basis_a_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_basis_mul51), .b(dl_basis_mul52), .sub(1'b0),
         .out_valid(op_valid_nc[4]), .y(basis_a_z), .flags(fl_basis_a_z)
     );
@@ -579,7 +582,7 @@ module pgs_friction_pipe_tb #(
     // basis_a_x = basis_mul63 + basis_mul51   (ready @7/7/7)
     logic [W-1:0] basis_a_x;
     logic [2:0] fl_basis_a_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_a_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_basis_a_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_basis_mul63), .b(dl_basis_mul51), .sub(1'b0),
         .out_valid(op_valid_nc[13]), .y(basis_a_x), .flags(fl_basis_a_x)
     );
@@ -754,7 +757,7 @@ module pgs_friction_pipe_tb #(
     // add81 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add81;
     logic [2:0] fl_add81;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add81 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add81 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[21]), .y(add81), .flags(fl_add81)
     );
@@ -768,7 +771,7 @@ module pgs_friction_pipe_tb #(
     // add82 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add82;
     logic [2:0] fl_add82;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add82 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add82 (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[22]), .y(add82), .flags(fl_add82)
     );
@@ -782,7 +785,7 @@ module pgs_friction_pipe_tb #(
     // add83 = add81 + add82   (ready @8/8/8)
     logic [W-1:0] add83;
     logic [2:0] fl_add83;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add83 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add83 (
         .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add81), .b(dl_add82), .sub(1'b0),
         .out_valid(op_valid_nc[23]), .y(add83), .flags(fl_add83)
     );
@@ -817,7 +820,7 @@ module pgs_friction_pipe_tb #(
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[25]), .y(rA_x), .flags(fl_rA_x)
     );
@@ -831,7 +834,7 @@ module pgs_friction_pipe_tb #(
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(rA_y), .flags(fl_rA_y)
     );
@@ -845,7 +848,7 @@ module pgs_friction_pipe_tb #(
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(rA_z), .flags(fl_rA_z)
     );
@@ -859,7 +862,7 @@ module pgs_friction_pipe_tb #(
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[28]), .y(rB_x), .flags(fl_rB_x)
     );
@@ -873,7 +876,7 @@ module pgs_friction_pipe_tb #(
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(rB_y), .flags(fl_rB_y)
     );
@@ -887,7 +890,7 @@ module pgs_friction_pipe_tb #(
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[30]), .y(rB_z), .flags(fl_rB_z)
     );
@@ -929,7 +932,7 @@ module pgs_friction_pipe_tb #(
     // t0_cA_x = t0_mul92 - t0_mul93   (ready @72/46/40)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul92), .b(dl_t0_mul93), .sub(1'b1),
         .out_valid(op_valid_nc[33]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
@@ -971,7 +974,7 @@ module pgs_friction_pipe_tb #(
     // t0_cA_y = t0_mul95 - t0_mul96   (ready @72/46/40)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul95), .b(dl_t0_mul96), .sub(1'b1),
         .out_valid(op_valid_nc[36]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
@@ -1013,7 +1016,7 @@ module pgs_friction_pipe_tb #(
     // t0_cA_z = t0_mul98 - t0_mul99   (ready @72/46/40)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul98), .b(dl_t0_mul99), .sub(1'b1),
         .out_valid(op_valid_nc[39]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
@@ -1055,7 +1058,7 @@ module pgs_friction_pipe_tb #(
     // t0_cB_x = t0_mul101 - t0_mul102   (ready @72/46/40)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul101), .b(dl_t0_mul102), .sub(1'b1),
         .out_valid(op_valid_nc[42]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
@@ -1097,7 +1100,7 @@ module pgs_friction_pipe_tb #(
     // t0_cB_y = t0_mul104 - t0_mul105   (ready @72/46/40)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul104), .b(dl_t0_mul105), .sub(1'b1),
         .out_valid(op_valid_nc[45]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
@@ -1139,7 +1142,7 @@ module pgs_friction_pipe_tb #(
     // t0_cB_z = t0_mul107 - t0_mul108   (ready @72/46/40)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul107), .b(dl_t0_mul108), .sub(1'b1),
         .out_valid(op_valid_nc[48]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
@@ -1181,7 +1184,7 @@ module pgs_friction_pipe_tb #(
     // t0_add112 = t0_mul110 + t0_mul111   (ready @72/46/40)
     logic [W-1:0] t0_add112;
     logic [2:0] fl_t0_add112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add112 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul110), .b(dl_t0_mul111), .sub(1'b0),
         .out_valid(op_valid_nc[51]), .y(t0_add112), .flags(fl_t0_add112)
     );
@@ -1209,7 +1212,7 @@ module pgs_friction_pipe_tb #(
     // t0_add114 = t0_add112 + t0_mul113   (ready @76/50/44)
     logic [W-1:0] t0_add114;
     logic [2:0] fl_t0_add114;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add114 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add114 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_add112), .b(dl_t0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(t0_add114), .flags(fl_t0_add114)
     );
@@ -1251,7 +1254,7 @@ module pgs_friction_pipe_tb #(
     // t0_add117 = t0_mul115 + t0_mul116   (ready @72/46/40)
     logic [W-1:0] t0_add117;
     logic [2:0] fl_t0_add117;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add117 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add117 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul115), .b(dl_t0_mul116), .sub(1'b0),
         .out_valid(op_valid_nc[56]), .y(t0_add117), .flags(fl_t0_add117)
     );
@@ -1279,7 +1282,7 @@ module pgs_friction_pipe_tb #(
     // t0_add119 = t0_add117 + t0_mul118   (ready @76/50/44)
     logic [W-1:0] t0_add119;
     logic [2:0] fl_t0_add119;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add119 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add119 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_add117), .b(dl_t0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[58]), .y(t0_add119), .flags(fl_t0_add119)
     );
@@ -1293,7 +1296,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub120 = t0_add114 - t0_add119   (ready @80/54/48)
     logic [W-1:0] t0_sub120;
     logic [2:0] fl_t0_sub120;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub120 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub120 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 30]), .a(dl_t0_add114), .b(dl_t0_add119), .sub(1'b1),
         .out_valid(op_valid_nc[59]), .y(t0_sub120), .flags(fl_t0_sub120)
     );
@@ -1335,7 +1338,7 @@ module pgs_friction_pipe_tb #(
     // t0_add123 = t0_mul121 + t0_mul122   (ready @79/53/47)
     logic [W-1:0] t0_add123;
     logic [2:0] fl_t0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_t0_mul121), .b(dl_t0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add123), .flags(fl_t0_add123)
     );
@@ -1363,7 +1366,7 @@ module pgs_friction_pipe_tb #(
     // t0_add125 = t0_add123 + t0_mul124   (ready @83/57/51)
     logic [W-1:0] t0_add125;
     logic [2:0] fl_t0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 33]), .a(dl_t0_add123), .b(dl_t0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add125), .flags(fl_t0_add125)
     );
@@ -1405,7 +1408,7 @@ module pgs_friction_pipe_tb #(
     // t0_add128 = t0_mul126 + t0_mul127   (ready @79/53/47)
     logic [W-1:0] t0_add128;
     logic [2:0] fl_t0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_t0_mul126), .b(dl_t0_mul127), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(t0_add128), .flags(fl_t0_add128)
     );
@@ -1433,7 +1436,7 @@ module pgs_friction_pipe_tb #(
     // t0_add130 = t0_add128 + t0_mul129   (ready @83/57/51)
     logic [W-1:0] t0_add130;
     logic [2:0] fl_t0_add130;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add130 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add130 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 33]), .a(dl_t0_add128), .b(dl_t0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(t0_add130), .flags(fl_t0_add130)
     );
@@ -1447,7 +1450,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub131 = t0_add125 - t0_add130   (ready @87/61/55)
     logic [W-1:0] t0_sub131;
     logic [2:0] fl_t0_sub131;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub131 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub131 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 37]), .a(dl_t0_add125), .b(dl_t0_add130), .sub(1'b1),
         .out_valid(op_valid_nc[70]), .y(t0_sub131), .flags(fl_t0_sub131)
     );
@@ -1461,7 +1464,7 @@ module pgs_friction_pipe_tb #(
     // t0_u = t0_sub120 + t0_sub131   (ready @91/65/59)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 41]), .a(dl_t0_sub120), .b(dl_t0_sub131), .sub(1'b0),
         .out_valid(op_valid_nc[71]), .y(t0_u), .flags(fl_t0_u)
     );
@@ -1496,7 +1499,7 @@ module pgs_friction_pipe_tb #(
     // t0_add135 = lamT0 + t0_delta0   (ready @98/72/66)
     logic [W-1:0] t0_add135;
     logic [2:0] fl_t0_add135;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add135 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add135 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 48]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(t0_add135), .flags(fl_t0_add135)
     );
@@ -1532,7 +1535,7 @@ module pgs_friction_pipe_tb #(
     // t0_delta = t0_lam_new - lamT0   (ready @104/78/72)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 54]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[76]), .y(t0_delta), .flags(fl_t0_delta)
     );
@@ -1644,7 +1647,7 @@ module pgs_friction_pipe_tb #(
     // t0_add147 = vA_x + t0_mul144   (ready @111/85/79)
     logic [W-1:0] t0_add147;
     logic [2:0] fl_t0_add147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add147 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul144), .sub(1'b0),
         .out_valid(op_valid_nc[83]), .y(t0_add147), .flags(fl_t0_add147)
     );
@@ -1658,7 +1661,7 @@ module pgs_friction_pipe_tb #(
     // t0_add148 = vA_y + t0_mul145   (ready @111/85/79)
     logic [W-1:0] t0_add148;
     logic [2:0] fl_t0_add148;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add148 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add148 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul145), .sub(1'b0),
         .out_valid(op_valid_nc[84]), .y(t0_add148), .flags(fl_t0_add148)
     );
@@ -1672,7 +1675,7 @@ module pgs_friction_pipe_tb #(
     // t0_add149 = vA_z + t0_mul146   (ready @111/85/79)
     logic [W-1:0] t0_add149;
     logic [2:0] fl_t0_add149;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add149 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add149 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul146), .sub(1'b0),
         .out_valid(op_valid_nc[85]), .y(t0_add149), .flags(fl_t0_add149)
     );
@@ -1791,7 +1794,7 @@ module pgs_friction_pipe_tb #(
     // t0_add159 = wA_x + t0_mul156   (ready @111/85/79)
     logic [W-1:0] t0_add159;
     logic [2:0] fl_t0_add159;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add159 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add159 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul156), .sub(1'b0),
         .out_valid(op_valid_nc[92]), .y(t0_add159), .flags(fl_t0_add159)
     );
@@ -1805,7 +1808,7 @@ module pgs_friction_pipe_tb #(
     // t0_add160 = wA_y + t0_mul157   (ready @111/85/79)
     logic [W-1:0] t0_add160;
     logic [2:0] fl_t0_add160;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add160 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add160 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul157), .sub(1'b0),
         .out_valid(op_valid_nc[93]), .y(t0_add160), .flags(fl_t0_add160)
     );
@@ -1819,7 +1822,7 @@ module pgs_friction_pipe_tb #(
     // t0_add161 = wA_z + t0_mul158   (ready @111/85/79)
     logic [W-1:0] t0_add161;
     logic [2:0] fl_t0_add161;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add161 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_add161 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul158), .sub(1'b0),
         .out_valid(op_valid_nc[94]), .y(t0_add161), .flags(fl_t0_add161)
     );
@@ -1938,7 +1941,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub171 = vB_x - t0_mul168   (ready @111/85/79)
     logic [W-1:0] t0_sub171;
     logic [2:0] fl_t0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(t0_sub171), .flags(fl_t0_sub171)
     );
@@ -1952,7 +1955,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub172 = vB_y - t0_mul169   (ready @111/85/79)
     logic [W-1:0] t0_sub172;
     logic [2:0] fl_t0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(t0_sub172), .flags(fl_t0_sub172)
     );
@@ -1966,7 +1969,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub173 = vB_z - t0_mul170   (ready @111/85/79)
     logic [W-1:0] t0_sub173;
     logic [2:0] fl_t0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(t0_sub173), .flags(fl_t0_sub173)
     );
@@ -2085,7 +2088,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub183 = wB_x - t0_mul180   (ready @111/85/79)
     logic [W-1:0] t0_sub183;
     logic [2:0] fl_t0_sub183;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub183 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub183 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul180), .sub(1'b1),
         .out_valid(op_valid_nc[110]), .y(t0_sub183), .flags(fl_t0_sub183)
     );
@@ -2099,7 +2102,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub184 = wB_y - t0_mul181   (ready @111/85/79)
     logic [W-1:0] t0_sub184;
     logic [2:0] fl_t0_sub184;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub184 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub184 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul181), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(t0_sub184), .flags(fl_t0_sub184)
     );
@@ -2113,7 +2116,7 @@ module pgs_friction_pipe_tb #(
     // t0_sub185 = wB_z - t0_mul182   (ready @111/85/79)
     logic [W-1:0] t0_sub185;
     logic [2:0] fl_t0_sub185;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub185 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t0_sub185 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul182), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(t0_sub185), .flags(fl_t0_sub185)
     );
@@ -2176,7 +2179,7 @@ module pgs_friction_pipe_tb #(
     // t1_cA_x = t1_mul189 - t1_mul190   (ready @75/49/43)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul189), .b(dl_t1_mul190), .sub(1'b1),
         .out_valid(op_valid_nc[115]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
@@ -2218,7 +2221,7 @@ module pgs_friction_pipe_tb #(
     // t1_cA_y = t1_mul192 - t1_mul193   (ready @75/49/43)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul192), .b(dl_t1_mul193), .sub(1'b1),
         .out_valid(op_valid_nc[118]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
@@ -2260,7 +2263,7 @@ module pgs_friction_pipe_tb #(
     // t1_cA_z = t1_mul195 - t1_mul196   (ready @75/49/43)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul195), .b(dl_t1_mul196), .sub(1'b1),
         .out_valid(op_valid_nc[121]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
@@ -2302,7 +2305,7 @@ module pgs_friction_pipe_tb #(
     // t1_cB_x = t1_mul198 - t1_mul199   (ready @75/49/43)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul198), .b(dl_t1_mul199), .sub(1'b1),
         .out_valid(op_valid_nc[124]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
@@ -2344,7 +2347,7 @@ module pgs_friction_pipe_tb #(
     // t1_cB_y = t1_mul201 - t1_mul202   (ready @75/49/43)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul201), .b(dl_t1_mul202), .sub(1'b1),
         .out_valid(op_valid_nc[127]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
@@ -2386,7 +2389,7 @@ module pgs_friction_pipe_tb #(
     // t1_cB_z = t1_mul204 - t1_mul205   (ready @75/49/43)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul204), .b(dl_t1_mul205), .sub(1'b1),
         .out_valid(op_valid_nc[130]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
@@ -2428,7 +2431,7 @@ module pgs_friction_pipe_tb #(
     // t1_add209 = t1_mul207 + t1_mul208   (ready @118/92/86)
     logic [W-1:0] t1_add209;
     logic [2:0] fl_t1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul207), .b(dl_t1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[133]), .y(t1_add209), .flags(fl_t1_add209)
     );
@@ -2456,7 +2459,7 @@ module pgs_friction_pipe_tb #(
     // t1_add211 = t1_add209 + t1_mul210   (ready @122/96/90)
     logic [W-1:0] t1_add211;
     logic [2:0] fl_t1_add211;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add211 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add211 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add209), .b(dl_t1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(t1_add211), .flags(fl_t1_add211)
     );
@@ -2498,7 +2501,7 @@ module pgs_friction_pipe_tb #(
     // t1_add214 = t1_mul212 + t1_mul213   (ready @118/92/86)
     logic [W-1:0] t1_add214;
     logic [2:0] fl_t1_add214;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add214 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add214 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul212), .b(dl_t1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[138]), .y(t1_add214), .flags(fl_t1_add214)
     );
@@ -2526,7 +2529,7 @@ module pgs_friction_pipe_tb #(
     // t1_add216 = t1_add214 + t1_mul215   (ready @122/96/90)
     logic [W-1:0] t1_add216;
     logic [2:0] fl_t1_add216;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add216 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add216 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add214), .b(dl_t1_mul215), .sub(1'b0),
         .out_valid(op_valid_nc[140]), .y(t1_add216), .flags(fl_t1_add216)
     );
@@ -2540,7 +2543,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub217 = t1_add211 - t1_add216   (ready @126/100/94)
     logic [W-1:0] t1_sub217;
     logic [2:0] fl_t1_sub217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub217 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 76]), .a(dl_t1_add211), .b(dl_t1_add216), .sub(1'b1),
         .out_valid(op_valid_nc[141]), .y(t1_sub217), .flags(fl_t1_sub217)
     );
@@ -2582,7 +2585,7 @@ module pgs_friction_pipe_tb #(
     // t1_add220 = t1_mul218 + t1_mul219   (ready @118/92/86)
     logic [W-1:0] t1_add220;
     logic [2:0] fl_t1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul218), .b(dl_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[144]), .y(t1_add220), .flags(fl_t1_add220)
     );
@@ -2610,7 +2613,7 @@ module pgs_friction_pipe_tb #(
     // t1_add222 = t1_add220 + t1_mul221   (ready @122/96/90)
     logic [W-1:0] t1_add222;
     logic [2:0] fl_t1_add222;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add222 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add222 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add220), .b(dl_t1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[146]), .y(t1_add222), .flags(fl_t1_add222)
     );
@@ -2652,7 +2655,7 @@ module pgs_friction_pipe_tb #(
     // t1_add225 = t1_mul223 + t1_mul224   (ready @118/92/86)
     logic [W-1:0] t1_add225;
     logic [2:0] fl_t1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul223), .b(dl_t1_mul224), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(t1_add225), .flags(fl_t1_add225)
     );
@@ -2680,7 +2683,7 @@ module pgs_friction_pipe_tb #(
     // t1_add227 = t1_add225 + t1_mul226   (ready @122/96/90)
     logic [W-1:0] t1_add227;
     logic [2:0] fl_t1_add227;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add227 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add227 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add225), .b(dl_t1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(t1_add227), .flags(fl_t1_add227)
     );
@@ -2694,7 +2697,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub228 = t1_add222 - t1_add227   (ready @126/100/94)
     logic [W-1:0] t1_sub228;
     logic [2:0] fl_t1_sub228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub228 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 76]), .a(dl_t1_add222), .b(dl_t1_add227), .sub(1'b1),
         .out_valid(op_valid_nc[152]), .y(t1_sub228), .flags(fl_t1_sub228)
     );
@@ -2708,7 +2711,7 @@ module pgs_friction_pipe_tb #(
     // t1_u = t1_sub217 + t1_sub228   (ready @130/104/98)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_u (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 80]), .a(dl_t1_sub217), .b(dl_t1_sub228), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(t1_u), .flags(fl_t1_u)
     );
@@ -2743,7 +2746,7 @@ module pgs_friction_pipe_tb #(
     // t1_add232 = lamT1 + t1_delta0   (ready @137/111/105)
     logic [W-1:0] t1_add232;
     logic [2:0] fl_t1_add232;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add232 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add232 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 87]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(t1_add232), .flags(fl_t1_add232)
     );
@@ -2779,7 +2782,7 @@ module pgs_friction_pipe_tb #(
     // t1_delta = t1_lam_new - lamT1   (ready @143/117/111)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 93]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[158]), .y(t1_delta), .flags(fl_t1_delta)
     );
@@ -2891,7 +2894,7 @@ module pgs_friction_pipe_tb #(
     // t1_add244 = t0_vA_x + t1_mul241   (ready @150/124/118)
     logic [W-1:0] t1_add244;
     logic [2:0] fl_t1_add244;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add244 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add244 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul241), .sub(1'b0),
         .out_valid(op_valid_nc[165]), .y(t1_add244), .flags(fl_t1_add244)
     );
@@ -2905,7 +2908,7 @@ module pgs_friction_pipe_tb #(
     // t1_add245 = t0_vA_y + t1_mul242   (ready @150/124/118)
     logic [W-1:0] t1_add245;
     logic [2:0] fl_t1_add245;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add245 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add245 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul242), .sub(1'b0),
         .out_valid(op_valid_nc[166]), .y(t1_add245), .flags(fl_t1_add245)
     );
@@ -2919,7 +2922,7 @@ module pgs_friction_pipe_tb #(
     // t1_add246 = t0_vA_z + t1_mul243   (ready @150/124/118)
     logic [W-1:0] t1_add246;
     logic [2:0] fl_t1_add246;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add246 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add246 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul243), .sub(1'b0),
         .out_valid(op_valid_nc[167]), .y(t1_add246), .flags(fl_t1_add246)
     );
@@ -3038,7 +3041,7 @@ module pgs_friction_pipe_tb #(
     // t1_add256 = t0_wA_x + t1_mul253   (ready @150/124/118)
     logic [W-1:0] t1_add256;
     logic [2:0] fl_t1_add256;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add256 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add256 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul253), .sub(1'b0),
         .out_valid(op_valid_nc[174]), .y(t1_add256), .flags(fl_t1_add256)
     );
@@ -3052,7 +3055,7 @@ module pgs_friction_pipe_tb #(
     // t1_add257 = t0_wA_y + t1_mul254   (ready @150/124/118)
     logic [W-1:0] t1_add257;
     logic [2:0] fl_t1_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[175]), .y(t1_add257), .flags(fl_t1_add257)
     );
@@ -3066,7 +3069,7 @@ module pgs_friction_pipe_tb #(
     // t1_add258 = t0_wA_z + t1_mul255   (ready @150/124/118)
     logic [W-1:0] t1_add258;
     logic [2:0] fl_t1_add258;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add258 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_add258 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul255), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(t1_add258), .flags(fl_t1_add258)
     );
@@ -3185,7 +3188,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub268 = t0_vB_x - t1_mul265   (ready @150/124/118)
     logic [W-1:0] t1_sub268;
     logic [2:0] fl_t1_sub268;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub268 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub268 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(t1_sub268), .flags(fl_t1_sub268)
     );
@@ -3199,7 +3202,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub269 = t0_vB_y - t1_mul266   (ready @150/124/118)
     logic [W-1:0] t1_sub269;
     logic [2:0] fl_t1_sub269;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub269 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub269 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul266), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(t1_sub269), .flags(fl_t1_sub269)
     );
@@ -3213,7 +3216,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub270 = t0_vB_z - t1_mul267   (ready @150/124/118)
     logic [W-1:0] t1_sub270;
     logic [2:0] fl_t1_sub270;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub270 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub270 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul267), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(t1_sub270), .flags(fl_t1_sub270)
     );
@@ -3332,7 +3335,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub280 = t0_wB_x - t1_mul277   (ready @150/124/118)
     logic [W-1:0] t1_sub280;
     logic [2:0] fl_t1_sub280;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub280 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub280 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul277), .sub(1'b1),
         .out_valid(op_valid_nc[192]), .y(t1_sub280), .flags(fl_t1_sub280)
     );
@@ -3346,7 +3349,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub281 = t0_wB_y - t1_mul278   (ready @150/124/118)
     logic [W-1:0] t1_sub281;
     logic [2:0] fl_t1_sub281;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub281 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub281 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul278), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(t1_sub281), .flags(fl_t1_sub281)
     );
@@ -3360,7 +3363,7 @@ module pgs_friction_pipe_tb #(
     // t1_sub282 = t0_wB_z - t1_mul279   (ready @150/124/118)
     logic [W-1:0] t1_sub282;
     logic [2:0] fl_t1_sub282;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub282 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_t1_sub282 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul279), .sub(1'b1),
         .out_valid(op_valid_nc[194]), .y(t1_sub282), .flags(fl_t1_sub282)
     );
@@ -3423,7 +3426,7 @@ module pgs_friction_pipe_tb #(
     // spin_add289 = spin_mul287 + spin_mul288   (ready @157/131/125)
     logic [W-1:0] spin_add289;
     logic [2:0] fl_spin_add289;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add289 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add289 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 107]), .a(dl_spin_mul287), .b(dl_spin_mul288), .sub(1'b0),
         .out_valid(op_valid_nc[197]), .y(spin_add289), .flags(fl_spin_add289)
     );
@@ -3451,7 +3454,7 @@ module pgs_friction_pipe_tb #(
     // spin_add291 = spin_add289 + spin_mul290   (ready @161/135/129)
     logic [W-1:0] spin_add291;
     logic [2:0] fl_spin_add291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add291 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 111]), .a(dl_spin_add289), .b(dl_spin_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[199]), .y(spin_add291), .flags(fl_spin_add291)
     );
@@ -3521,7 +3524,7 @@ module pgs_friction_pipe_tb #(
     // spin_wA_damped_x = t1_wA_x - spin_mul293   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul293), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
@@ -3535,7 +3538,7 @@ module pgs_friction_pipe_tb #(
     // spin_wA_damped_y = t1_wA_y - spin_mul294   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul294), .sub(1'b1),
         .out_valid(op_valid_nc[205]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
@@ -3549,7 +3552,7 @@ module pgs_friction_pipe_tb #(
     // spin_wA_damped_z = t1_wA_z - spin_mul295   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wA_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul295), .sub(1'b1),
         .out_valid(op_valid_nc[206]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
@@ -3591,7 +3594,7 @@ module pgs_friction_pipe_tb #(
     // spin_add301 = spin_mul299 + spin_mul300   (ready @157/131/125)
     logic [W-1:0] spin_add301;
     logic [2:0] fl_spin_add301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add301 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 107]), .a(dl_spin_mul299), .b(dl_spin_mul300), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(spin_add301), .flags(fl_spin_add301)
     );
@@ -3619,7 +3622,7 @@ module pgs_friction_pipe_tb #(
     // spin_add303 = spin_add301 + spin_mul302   (ready @161/135/129)
     logic [W-1:0] spin_add303;
     logic [2:0] fl_spin_add303;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add303 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_add303 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 111]), .a(dl_spin_add301), .b(dl_spin_mul302), .sub(1'b0),
         .out_valid(op_valid_nc[211]), .y(spin_add303), .flags(fl_spin_add303)
     );
@@ -3689,7 +3692,7 @@ module pgs_friction_pipe_tb #(
     // spin_wB_damped_x = t1_wB_x - spin_mul305   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul305), .sub(1'b1),
         .out_valid(op_valid_nc[216]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
@@ -3703,7 +3706,7 @@ module pgs_friction_pipe_tb #(
     // spin_wB_damped_y = t1_wB_y - spin_mul306   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul306), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
@@ -3717,7 +3720,7 @@ module pgs_friction_pipe_tb #(
     // spin_wB_damped_z = t1_wB_z - spin_mul307   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_spin_wB_damped_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul307), .sub(1'b1),
         .out_valid(op_valid_nc[218]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );

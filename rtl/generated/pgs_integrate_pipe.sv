@@ -26,6 +26,9 @@ module pgs_integrate_pipe #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 18,
     localparam int N_OUT    = 13,
@@ -389,7 +392,7 @@ module pgs_integrate_pipe #(
     // add33 = mul31 + mul32   (ready @10/10/10)
     logic [W-1:0] add33;
     logic [2:0] fl_add33;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add33 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add33 (
         .clk(clk), .rst(rst), .in_valid(valid_q[6]), .a(dl_mul31), .b(dl_mul32), .sub(1'b0),
         .out_valid(op_valid_nc[12]), .y(add33), .flags(fl_add33)
     );
@@ -417,7 +420,7 @@ module pgs_integrate_pipe #(
     // add35 = add33 + mul34   (ready @14/14/14)
     logic [W-1:0] add35;
     logic [2:0] fl_add35;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add35 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add35 (
         .clk(clk), .rst(rst), .in_valid(valid_q[10]), .a(dl_add33), .b(dl_mul34), .sub(1'b0),
         .out_valid(op_valid_nc[14]), .y(add35), .flags(fl_add35)
     );
@@ -544,7 +547,7 @@ module pgs_integrate_pipe #(
     // s_small = half_dt - mul45   (ready @55/42/39)
     logic [W-1:0] s_small;
     logic [2:0] fl_s_small;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_s_small (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_s_small (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 28]), .a(dl_half_dt[1*W +: W]), .b(dl_mul45), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(s_small), .flags(fl_s_small)
     );
@@ -586,7 +589,7 @@ module pgs_integrate_pipe #(
     // add51 = 0.008333333333333333 + mul50   (ready @58/45/42)
     logic [W-1:0] add51;
     logic [2:0] fl_add51;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add51 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add51 (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 31]), .a(K_SIN_C1), .b(dl_mul50), .sub(1'b0),
         .out_valid(op_valid_nc[26]), .y(add51), .flags(fl_add51)
     );
@@ -614,7 +617,7 @@ module pgs_integrate_pipe #(
     // add54 = -0.16666666666666666 + mul53   (ready @65/52/49)
     logic [W-1:0] add54;
     logic [2:0] fl_add54;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add54 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add54 (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 38]), .a(K_SIN_C0), .b(dl_mul53), .sub(1'b0),
         .out_valid(op_valid_nc[28]), .y(add54), .flags(fl_add54)
     );
@@ -656,7 +659,7 @@ module pgs_integrate_pipe #(
     // sin_x = x + mul56   (ready @75/62/59)
     logic [W-1:0] sin_x;
     logic [2:0] fl_sin_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sin_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_sin_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 48]), .a(dl_x[2*W +: W]), .b(dl_mul56), .sub(1'b0),
         .out_valid(op_valid_nc[31]), .y(sin_x), .flags(fl_sin_x)
     );
@@ -705,7 +708,7 @@ module pgs_integrate_pipe #(
     // add64 = -0.001388888888888889 + mul63   (ready @58/45/42)
     logic [W-1:0] add64;
     logic [2:0] fl_add64;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add64 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add64 (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 31]), .a(K_COS_C2), .b(dl_mul63), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(add64), .flags(fl_add64)
     );
@@ -733,7 +736,7 @@ module pgs_integrate_pipe #(
     // add67 = 0.041666666666666664 + mul66   (ready @65/52/49)
     logic [W-1:0] add67;
     logic [2:0] fl_add67;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add67 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add67 (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 38]), .a(K_COS_C1), .b(dl_mul66), .sub(1'b0),
         .out_valid(op_valid_nc[36]), .y(add67), .flags(fl_add67)
     );
@@ -761,7 +764,7 @@ module pgs_integrate_pipe #(
     // add70 = -0.5 + mul69   (ready @72/59/56)
     logic [W-1:0] add70;
     logic [2:0] fl_add70;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add70 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add70 (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 45]), .a(K_COS_C0), .b(dl_mul69), .sub(1'b0),
         .out_valid(op_valid_nc[38]), .y(add70), .flags(fl_add70)
     );
@@ -789,7 +792,7 @@ module pgs_integrate_pipe #(
     // cos_x = 1.0 + mul71   (ready @79/66/63)
     logic [W-1:0] cos_x;
     logic [2:0] fl_cos_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_cos_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_cos_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 52]), .a(K_ONE), .b(dl_mul71), .sub(1'b0),
         .out_valid(op_valid_nc[40]), .y(cos_x), .flags(fl_cos_x)
     );
@@ -873,7 +876,7 @@ module pgs_integrate_pipe #(
     // add78 = mul76 + mul77   (ready @113/87/81)
     logic [W-1:0] add78;
     logic [2:0] fl_add78;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add78 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add78 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul76), .b(dl_mul77), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(add78), .flags(fl_add78)
     );
@@ -915,7 +918,7 @@ module pgs_integrate_pipe #(
     // sub81 = mul79 - mul80   (ready @113/87/81)
     logic [W-1:0] sub81;
     logic [2:0] fl_sub81;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub81 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_sub81 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul79), .b(dl_mul80), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(sub81), .flags(fl_sub81)
     );
@@ -929,7 +932,7 @@ module pgs_integrate_pipe #(
     // qn_x = add78 + sub81   (ready @117/91/85)
     logic [W-1:0] qn_x;
     logic [2:0] fl_qn_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_qn_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_add78), .b(dl_sub81), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(qn_x), .flags(fl_qn_x)
     );
@@ -971,7 +974,7 @@ module pgs_integrate_pipe #(
     // add85 = mul83 + mul84   (ready @113/87/81)
     logic [W-1:0] add85;
     logic [2:0] fl_add85;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add85 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add85 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul83), .b(dl_mul84), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(add85), .flags(fl_add85)
     );
@@ -1013,7 +1016,7 @@ module pgs_integrate_pipe #(
     // sub88 = mul86 - mul87   (ready @113/87/81)
     logic [W-1:0] sub88;
     logic [2:0] fl_sub88;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub88 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_sub88 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul86), .b(dl_mul87), .sub(1'b1),
         .out_valid(op_valid_nc[56]), .y(sub88), .flags(fl_sub88)
     );
@@ -1027,7 +1030,7 @@ module pgs_integrate_pipe #(
     // qn_y = add85 + sub88   (ready @117/91/85)
     logic [W-1:0] qn_y;
     logic [2:0] fl_qn_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_qn_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_add85), .b(dl_sub88), .sub(1'b0),
         .out_valid(op_valid_nc[57]), .y(qn_y), .flags(fl_qn_y)
     );
@@ -1069,7 +1072,7 @@ module pgs_integrate_pipe #(
     // add92 = mul90 + mul91   (ready @113/87/81)
     logic [W-1:0] add92;
     logic [2:0] fl_add92;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add92 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add92 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul90), .b(dl_mul91), .sub(1'b0),
         .out_valid(op_valid_nc[60]), .y(add92), .flags(fl_add92)
     );
@@ -1111,7 +1114,7 @@ module pgs_integrate_pipe #(
     // sub95 = mul93 - mul94   (ready @113/87/81)
     logic [W-1:0] sub95;
     logic [2:0] fl_sub95;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub95 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_sub95 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul93), .b(dl_mul94), .sub(1'b1),
         .out_valid(op_valid_nc[63]), .y(sub95), .flags(fl_sub95)
     );
@@ -1125,7 +1128,7 @@ module pgs_integrate_pipe #(
     // qn_z = add92 + sub95   (ready @117/91/85)
     logic [W-1:0] qn_z;
     logic [2:0] fl_qn_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_qn_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_add92), .b(dl_sub95), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(qn_z), .flags(fl_qn_z)
     );
@@ -1167,7 +1170,7 @@ module pgs_integrate_pipe #(
     // sub99 = mul97 - mul98   (ready @113/87/81)
     logic [W-1:0] sub99;
     logic [2:0] fl_sub99;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub99 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_sub99 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul97), .b(dl_mul98), .sub(1'b1),
         .out_valid(op_valid_nc[67]), .y(sub99), .flags(fl_sub99)
     );
@@ -1209,7 +1212,7 @@ module pgs_integrate_pipe #(
     // add102 = mul100 + mul101   (ready @113/87/81)
     logic [W-1:0] add102;
     logic [2:0] fl_add102;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add102 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add102 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul100), .b(dl_mul101), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(add102), .flags(fl_add102)
     );
@@ -1223,7 +1226,7 @@ module pgs_integrate_pipe #(
     // qn_w = sub99 - add102   (ready @117/91/85)
     logic [W-1:0] qn_w;
     logic [2:0] fl_qn_w;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_w (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_qn_w (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_sub99), .b(dl_add102), .sub(1'b1),
         .out_valid(op_valid_nc[71]), .y(qn_w), .flags(fl_qn_w)
     );
@@ -1265,7 +1268,7 @@ module pgs_integrate_pipe #(
     // add106 = mul104 + mul105   (ready @124/98/92)
     logic [W-1:0] add106;
     logic [2:0] fl_add106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add106 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 74]), .a(dl_mul104), .b(dl_mul105), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(add106), .flags(fl_add106)
     );
@@ -1307,7 +1310,7 @@ module pgs_integrate_pipe #(
     // add109 = mul107 + mul108   (ready @124/98/92)
     logic [W-1:0] add109;
     logic [2:0] fl_add109;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add109 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_add109 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 74]), .a(dl_mul107), .b(dl_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[77]), .y(add109), .flags(fl_add109)
     );
@@ -1321,7 +1324,7 @@ module pgs_integrate_pipe #(
     // norm2 = add106 + add109   (ready @128/102/96)
     logic [W-1:0] norm2;
     logic [2:0] fl_norm2;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_norm2 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_norm2 (
         .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 78]), .a(dl_add106), .b(dl_add109), .sub(1'b0),
         .out_valid(op_valid_nc[78]), .y(norm2), .flags(fl_norm2)
     );
@@ -1461,7 +1464,7 @@ module pgs_integrate_pipe #(
     // pos_x = pos_x + mul117   (ready @7/7/7)
     logic [W-1:0] pos_x;
     logic [2:0] fl_pos_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pos_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pos_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_pos_x), .b(dl_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[88]), .y(pos_x), .flags(fl_pos_x)
     );
@@ -1475,7 +1478,7 @@ module pgs_integrate_pipe #(
     // pos_y = pos_y + mul118   (ready @7/7/7)
     logic [W-1:0] pos_y;
     logic [2:0] fl_pos_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pos_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pos_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_pos_y), .b(dl_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[89]), .y(pos_y), .flags(fl_pos_y)
     );
@@ -1489,7 +1492,7 @@ module pgs_integrate_pipe #(
     // pos_z = pos_z + mul119   (ready @7/7/7)
     logic [W-1:0] pos_z;
     logic [2:0] fl_pos_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pos_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_pos_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_pos_z), .b(dl_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[90]), .y(pos_z), .flags(fl_pos_z)
     );
@@ -1503,7 +1506,7 @@ module pgs_integrate_pipe #(
     // v_x = v_x + g_dt_x   (ready @7/7/7)
     logic [W-1:0] v_x;
     logic [2:0] fl_v_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_v_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_v_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_v_x[1*W +: W]), .b(dl_g_dt_x), .sub(1'b0),
         .out_valid(op_valid_nc[91]), .y(v_x), .flags(fl_v_x)
     );
@@ -1517,7 +1520,7 @@ module pgs_integrate_pipe #(
     // v_y = v_y + g_dt_y   (ready @7/7/7)
     logic [W-1:0] v_y;
     logic [2:0] fl_v_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_v_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_v_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_v_y[1*W +: W]), .b(dl_g_dt_y), .sub(1'b0),
         .out_valid(op_valid_nc[92]), .y(v_y), .flags(fl_v_y)
     );
@@ -1531,7 +1534,7 @@ module pgs_integrate_pipe #(
     // v_z = v_z + g_dt_z   (ready @7/7/7)
     logic [W-1:0] v_z;
     logic [2:0] fl_v_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_v_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_v_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_v_z[1*W +: W]), .b(dl_g_dt_z), .sub(1'b0),
         .out_valid(op_valid_nc[93]), .y(v_z), .flags(fl_v_z)
     );

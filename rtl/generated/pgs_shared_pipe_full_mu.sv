@@ -38,6 +38,9 @@ module pgs_shared_pipe_full_mu #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 61,
     localparam int N_OUT    = 16,
@@ -638,7 +641,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_rA_x_b = kind_q[0] ? dl_in_lam1[2*W +: W] : dl_in_xA_x;
     logic [W-1:0] c_pt0_rA_x;
     logic [2:0] fl_c_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_x_a), .b(c_pt0_rA_x_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[6]), .y(c_pt0_rA_x), .flags(fl_c_pt0_rA_x)
     );
@@ -656,7 +659,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_rA_y_b = kind_q[0] ? dl_in_lam3[2*W +: W] : dl_in_xA_y;
     logic [W-1:0] c_pt0_rA_y;
     logic [2:0] fl_c_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_y_a), .b(c_pt0_rA_y_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[7]), .y(c_pt0_rA_y), .flags(fl_c_pt0_rA_y)
     );
@@ -670,7 +673,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rA_z = p0_z - xA_z; friction: rA_z = c_z - xA_z)
     logic [W-1:0] c_pt0_rA_z;
     logic [2:0] fl_c_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(c_pt0_rA_z), .flags(fl_c_pt0_rA_z)
     );
@@ -686,7 +689,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_rB_x_b = kind_q[0] ? dl_in_xA_x : dl_in_xB_x;
     logic [W-1:0] c_pt0_rB_x;
     logic [2:0] fl_c_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x__c_x), .b(c_pt0_rB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(c_pt0_rB_x), .flags(fl_c_pt0_rB_x)
     );
@@ -702,7 +705,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_rB_y_b = kind_q[0] ? dl_in_xA_y : dl_in_xB_y;
     logic [W-1:0] c_pt0_rB_y;
     logic [2:0] fl_c_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y__c_y), .b(c_pt0_rB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(c_pt0_rB_y), .flags(fl_c_pt0_rB_y)
     );
@@ -716,7 +719,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rB_z = p0_z - xB_z; friction: rB_z = c_z - xB_z)
     logic [W-1:0] c_pt0_rB_z;
     logic [2:0] fl_c_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(c_pt0_rB_z), .flags(fl_c_pt0_rB_z)
     );
@@ -826,7 +829,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_x = p1_x - xA_x)
     logic [W-1:0] c_pt1_rA_x;
     logic [2:0] fl_c_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_x__t0_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(c_pt1_rA_x), .flags(fl_c_pt1_rA_x)
     );
@@ -840,7 +843,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_y = p1_y - xA_y)
     logic [W-1:0] c_pt1_rA_y;
     logic [2:0] fl_c_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_y__t0_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[113]), .y(c_pt1_rA_y), .flags(fl_c_pt1_rA_y)
     );
@@ -854,7 +857,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_z = p1_z - xA_z)
     logic [W-1:0] c_pt1_rA_z;
     logic [2:0] fl_c_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[114]), .y(c_pt1_rA_z), .flags(fl_c_pt1_rA_z)
     );
@@ -870,7 +873,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_rB_x_a = kind_q[0] ? dl_in_p0_x__c_x : dl_in_p1_x__t0_x[0*W +: W];
     logic [W-1:0] c_pt1_rB_x;
     logic [2:0] fl_c_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_x_a), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[124]), .y(c_pt1_rB_x), .flags(fl_c_pt1_rB_x)
     );
@@ -886,7 +889,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_rB_y_a = kind_q[0] ? dl_in_p0_y__c_y : dl_in_p1_y__t0_y[0*W +: W];
     logic [W-1:0] c_pt1_rB_y;
     logic [2:0] fl_c_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_y_a), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[125]), .y(c_pt1_rB_y), .flags(fl_c_pt1_rB_y)
     );
@@ -900,7 +903,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rB_z = p1_z - xB_z)
     logic [W-1:0] c_pt1_rB_z;
     logic [2:0] fl_c_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[126]), .y(c_pt1_rB_z), .flags(fl_c_pt1_rB_z)
     );
@@ -914,7 +917,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_x = p2_x - xA_x)
     logic [W-1:0] c_pt2_rA_x;
     logic [2:0] fl_c_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[218]), .y(c_pt2_rA_x), .flags(fl_c_pt2_rA_x)
     );
@@ -928,7 +931,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_y = p2_y - xA_y)
     logic [W-1:0] c_pt2_rA_y;
     logic [2:0] fl_c_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[219]), .y(c_pt2_rA_y), .flags(fl_c_pt2_rA_y)
     );
@@ -942,7 +945,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_z = p2_z - xA_z)
     logic [W-1:0] c_pt2_rA_z;
     logic [2:0] fl_c_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[220]), .y(c_pt2_rA_z), .flags(fl_c_pt2_rA_z)
     );
@@ -956,7 +959,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_x = p2_x - xB_x)
     logic [W-1:0] c_pt2_rB_x;
     logic [2:0] fl_c_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[230]), .y(c_pt2_rB_x), .flags(fl_c_pt2_rB_x)
     );
@@ -970,7 +973,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_y = p2_y - xB_y)
     logic [W-1:0] c_pt2_rB_y;
     logic [2:0] fl_c_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[231]), .y(c_pt2_rB_y), .flags(fl_c_pt2_rB_y)
     );
@@ -984,7 +987,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_z = p2_z - xB_z)
     logic [W-1:0] c_pt2_rB_z;
     logic [2:0] fl_c_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[232]), .y(c_pt2_rB_z), .flags(fl_c_pt2_rB_z)
     );
@@ -998,7 +1001,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_x = p3_x - xA_x)
     logic [W-1:0] c_pt3_rA_x;
     logic [2:0] fl_c_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[324]), .y(c_pt3_rA_x), .flags(fl_c_pt3_rA_x)
     );
@@ -1012,7 +1015,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_y = p3_y - xA_y)
     logic [W-1:0] c_pt3_rA_y;
     logic [2:0] fl_c_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(c_pt3_rA_y), .flags(fl_c_pt3_rA_y)
     );
@@ -1026,7 +1029,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_z = p3_z - xA_z)
     logic [W-1:0] c_pt3_rA_z;
     logic [2:0] fl_c_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(c_pt3_rA_z), .flags(fl_c_pt3_rA_z)
     );
@@ -1040,7 +1043,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_x = p3_x - xB_x)
     logic [W-1:0] c_pt3_rB_x;
     logic [2:0] fl_c_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[336]), .y(c_pt3_rB_x), .flags(fl_c_pt3_rB_x)
     );
@@ -1054,7 +1057,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_y = p3_y - xB_y)
     logic [W-1:0] c_pt3_rB_y;
     logic [2:0] fl_c_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[337]), .y(c_pt3_rB_y), .flags(fl_c_pt3_rB_y)
     );
@@ -1068,7 +1071,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_z = p3_z - xB_z)
     logic [W-1:0] c_pt3_rB_z;
     logic [2:0] fl_c_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[338]), .y(c_pt3_rB_z), .flags(fl_c_pt3_rB_z)
     );
@@ -1082,7 +1085,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add93: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add93 = pt0_mul91 + pt0_mul92; friction: t0_add86 = t0_mul84 + t0_mul85)
     logic [W-1:0] c_pt0_add93;
     logic [2:0] fl_c_pt0_add93;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add93 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add93 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul91), .b(dl_c_pt0_mul92), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(c_pt0_add93), .flags(fl_c_pt0_add93)
     );
@@ -1096,7 +1099,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add98: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add98 = pt0_mul96 + pt0_mul97; friction: t0_add91 = t0_mul89 + t0_mul90)
     logic [W-1:0] c_pt0_add98;
     logic [2:0] fl_c_pt0_add98;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add98 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add98 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul96), .b(dl_c_pt0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(c_pt0_add98), .flags(fl_c_pt0_add98)
     );
@@ -1882,7 +1885,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_cA_x_b = kind_q[7] ? dl_c_pt0_rA_y[1*W +: W] : dl_c_pt0_mul71;
     logic [W-1:0] c_pt0_cA_x;
     logic [2:0] fl_c_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_x_a), .b(c_pt0_cA_x_b), .sub(!kind_q[7]),
         .out_valid(op_valid_nc[11]), .y(c_pt0_cA_x), .flags(fl_c_pt0_cA_x)
     );
@@ -1898,7 +1901,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_cA_y_b = kind_q[7] ? dl_c_pt0_mul86 : dl_c_pt0_mul74;
     logic [W-1:0] c_pt0_cA_y;
     logic [2:0] fl_c_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul73), .b(c_pt0_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(c_pt0_cA_y), .flags(fl_c_pt0_cA_y)
     );
@@ -1916,7 +1919,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_cA_z_b = kind_q[7] ? dl_c_pt0_mul74 : dl_c_pt0_mul77;
     logic [W-1:0] c_pt0_cA_z;
     logic [2:0] fl_c_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_z_a), .b(c_pt0_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(c_pt0_cA_z), .flags(fl_c_pt0_cA_z)
     );
@@ -1932,7 +1935,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_cB_x_b = kind_q[7] ? dl_c_pt0_mul71 : dl_c_pt0_mul83;
     logic [W-1:0] c_pt0_cB_x;
     logic [2:0] fl_c_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul82), .b(c_pt0_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(c_pt0_cB_x), .flags(fl_c_pt0_cB_x)
     );
@@ -1948,7 +1951,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_cB_y_b = kind_q[7] ? dl_c_pt1_mul206 : dl_c_pt0_mul86;
     logic [W-1:0] c_pt0_cB_y;
     logic [2:0] fl_c_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul85), .b(c_pt0_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(c_pt0_cB_y), .flags(fl_c_pt0_cB_y)
     );
@@ -1962,7 +1965,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_z = pt0_mul88 - pt0_mul89; friction: t0_cA_z = t0_mul72 - t0_mul73)
     logic [W-1:0] c_pt0_cB_z;
     logic [2:0] fl_c_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul88), .b(dl_c_pt0_mul89), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(c_pt0_cB_z), .flags(fl_c_pt0_cB_z)
     );
@@ -1976,7 +1979,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add95: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add95 = pt0_add93 + pt0_mul94; friction: t0_add88 = t0_add86 + t0_mul87)
     logic [W-1:0] c_pt0_add95;
     logic [2:0] fl_c_pt0_add95;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add95 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add95 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add93), .b(dl_c_pt0_mul94), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(c_pt0_add95), .flags(fl_c_pt0_add95)
     );
@@ -1990,7 +1993,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add100: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add100 = pt0_add98 + pt0_mul99; friction: t0_add93 = t0_add91 + t0_mul92)
     logic [W-1:0] c_pt0_add100;
     logic [2:0] fl_c_pt0_add100;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add100 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add100 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add98), .b(dl_c_pt0_mul99), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(c_pt0_add100), .flags(fl_c_pt0_add100)
     );
@@ -2008,7 +2011,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_cA_x_b = kind_q[7] ? dl_c_pt0_mul77 : dl_c_pt1_mul191;
     logic [W-1:0] c_pt1_cA_x;
     logic [2:0] fl_c_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_x_a), .b(c_pt1_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[117]), .y(c_pt1_cA_x), .flags(fl_c_pt1_cA_x)
     );
@@ -2026,7 +2029,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_cA_y_b = kind_q[7] ? dl_c_pt1_mul191 : dl_c_pt1_mul194;
     logic [W-1:0] c_pt1_cA_y;
     logic [2:0] fl_c_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_y_a), .b(c_pt1_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[120]), .y(c_pt1_cA_y), .flags(fl_c_pt1_cA_y)
     );
@@ -2044,7 +2047,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_cA_z_b = kind_q[7] ? dl_c_pt1_mul194 : dl_c_pt1_mul197;
     logic [W-1:0] c_pt1_cA_z;
     logic [2:0] fl_c_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_z_a), .b(c_pt1_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[123]), .y(c_pt1_cA_z), .flags(fl_c_pt1_cA_z)
     );
@@ -2060,7 +2063,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_cB_x_b = kind_q[7] ? dl_c_pt0_mul83 : dl_c_pt1_mul203;
     logic [W-1:0] c_pt1_cB_x;
     logic [2:0] fl_c_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul202), .b(c_pt1_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[129]), .y(c_pt1_cB_x), .flags(fl_c_pt1_cB_x)
     );
@@ -2078,7 +2081,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_cB_y_b = kind_q[7] ? dl_c_pt1_mul197 : dl_c_pt1_mul206;
     logic [W-1:0] c_pt1_cB_y;
     logic [2:0] fl_c_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cB_y_a), .b(c_pt1_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[132]), .y(c_pt1_cB_y), .flags(fl_c_pt1_cB_y)
     );
@@ -2092,7 +2095,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_z = pt1_mul208 - pt1_mul209; friction: t0_cB_z = t0_mul81 - t0_mul82)
     logic [W-1:0] c_pt1_cB_z;
     logic [2:0] fl_c_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul208), .b(dl_c_pt1_mul209), .sub(1'b1),
         .out_valid(op_valid_nc[135]), .y(c_pt1_cB_z), .flags(fl_c_pt1_cB_z)
     );
@@ -2110,7 +2113,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt2_cA_x_b = kind_q[7] ? dl_c_pt1_mul205 : dl_c_pt2_mul311[0*W +: W];
     logic [W-1:0] c_pt2_cA_x;
     logic [2:0] fl_c_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt2_cA_x_a), .b(c_pt2_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[223]), .y(c_pt2_cA_x), .flags(fl_c_pt2_cA_x)
     );
@@ -2124,7 +2127,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_y = pt2_mul313 - pt2_mul314)
     logic [W-1:0] c_pt2_cA_y;
     logic [2:0] fl_c_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul313[0*W +: W]), .b(dl_c_pt2_mul314[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[226]), .y(c_pt2_cA_y), .flags(fl_c_pt2_cA_y)
     );
@@ -2138,7 +2141,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_z = pt2_mul316 - pt2_mul317)
     logic [W-1:0] c_pt2_cA_z;
     logic [2:0] fl_c_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul316[0*W +: W]), .b(dl_c_pt2_mul317[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[229]), .y(c_pt2_cA_z), .flags(fl_c_pt2_cA_z)
     );
@@ -2152,7 +2155,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_x = pt2_mul322 - pt2_mul323)
     logic [W-1:0] c_pt2_cB_x;
     logic [2:0] fl_c_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul322), .b(dl_c_pt2_mul323), .sub(1'b1),
         .out_valid(op_valid_nc[235]), .y(c_pt2_cB_x), .flags(fl_c_pt2_cB_x)
     );
@@ -2166,7 +2169,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_y = pt2_mul325 - pt2_mul326)
     logic [W-1:0] c_pt2_cB_y;
     logic [2:0] fl_c_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul325), .b(dl_c_pt2_mul326), .sub(1'b1),
         .out_valid(op_valid_nc[238]), .y(c_pt2_cB_y), .flags(fl_c_pt2_cB_y)
     );
@@ -2180,7 +2183,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_z = pt2_mul328 - pt2_mul329)
     logic [W-1:0] c_pt2_cB_z;
     logic [2:0] fl_c_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul328), .b(dl_c_pt2_mul329), .sub(1'b1),
         .out_valid(op_valid_nc[241]), .y(c_pt2_cB_z), .flags(fl_c_pt2_cB_z)
     );
@@ -2194,7 +2197,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_x = pt3_mul430 - pt3_mul431)
     logic [W-1:0] c_pt3_cA_x;
     logic [2:0] fl_c_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul430), .b(dl_c_pt3_mul431), .sub(1'b1),
         .out_valid(op_valid_nc[329]), .y(c_pt3_cA_x), .flags(fl_c_pt3_cA_x)
     );
@@ -2208,7 +2211,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_y = pt3_mul433 - pt3_mul434)
     logic [W-1:0] c_pt3_cA_y;
     logic [2:0] fl_c_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul433), .b(dl_c_pt3_mul434), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(c_pt3_cA_y), .flags(fl_c_pt3_cA_y)
     );
@@ -2222,7 +2225,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_z = pt3_mul436 - pt3_mul437)
     logic [W-1:0] c_pt3_cA_z;
     logic [2:0] fl_c_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul436), .b(dl_c_pt3_mul437), .sub(1'b1),
         .out_valid(op_valid_nc[335]), .y(c_pt3_cA_z), .flags(fl_c_pt3_cA_z)
     );
@@ -2236,7 +2239,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_x = pt3_mul442 - pt3_mul443)
     logic [W-1:0] c_pt3_cB_x;
     logic [2:0] fl_c_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul442), .b(dl_c_pt3_mul443), .sub(1'b1),
         .out_valid(op_valid_nc[341]), .y(c_pt3_cB_x), .flags(fl_c_pt3_cB_x)
     );
@@ -2250,7 +2253,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_y = pt3_mul445 - pt3_mul446)
     logic [W-1:0] c_pt3_cB_y;
     logic [2:0] fl_c_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul445), .b(dl_c_pt3_mul446), .sub(1'b1),
         .out_valid(op_valid_nc[344]), .y(c_pt3_cB_y), .flags(fl_c_pt3_cB_y)
     );
@@ -2264,7 +2267,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_z = pt3_mul448 - pt3_mul449)
     logic [W-1:0] c_pt3_cB_z;
     logic [2:0] fl_c_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul448), .b(dl_c_pt3_mul449), .sub(1'b1),
         .out_valid(op_valid_nc[347]), .y(c_pt3_cB_z), .flags(fl_c_pt3_cB_z)
     );
@@ -2278,7 +2281,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub101: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub101 = pt0_add95 - pt0_add100; friction: t0_sub94 = t0_add88 - t0_add93)
     logic [W-1:0] c_pt0_sub101;
     logic [2:0] fl_c_pt0_sub101;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub101 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub101 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_c_pt0_add95), .b(dl_c_pt0_add100), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(c_pt0_sub101), .flags(fl_c_pt0_sub101)
     );
@@ -3443,7 +3446,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_add104_a = kind_q[14] ? dl_c_pt0_mul107 : dl_c_pt0_mul102[0*W +: W];
     logic [W-1:0] c_pt0_add104;
     logic [2:0] fl_c_pt0_add104;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add104 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add104 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add104_a), .b(dl_c_pt0_mul103), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(c_pt0_add104), .flags(fl_c_pt0_add104)
     );
@@ -3459,7 +3462,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_add109_a = kind_q[14] ? dl_c_pt1_mul255 : dl_c_pt0_mul107;
     logic [W-1:0] c_pt0_add109;
     logic [2:0] fl_c_pt0_add109;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add109 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add109 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add109_a), .b(dl_c_pt0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(c_pt0_add109), .flags(fl_c_pt0_add109)
     );
@@ -3473,7 +3476,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add122: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add122 = pt0_mul120 + pt0_mul121; friction: t0_add129 = t0_mul127 + t0_mul128)
     logic [W-1:0] c_pt0_add122;
     logic [2:0] fl_c_pt0_add122;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add122 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add122 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_c_pt0_mul120), .b(dl_c_pt0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[60]), .y(c_pt0_add122), .flags(fl_c_pt0_add122)
     );
@@ -3487,7 +3490,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add127: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add127 = pt0_mul125 + pt0_mul126; friction: t0_add134 = t0_mul132 + t0_mul133)
     logic [W-1:0] c_pt0_add127;
     logic [2:0] fl_c_pt0_add127;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add127 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add127 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_c_pt0_mul125), .b(dl_c_pt0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[65]), .y(c_pt0_add127), .flags(fl_c_pt0_add127)
     );
@@ -3501,7 +3504,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add132: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add132 = pt0_mul130 + pt0_mul131; friction: t0_add139 = t0_mul137 + t0_mul138)
     logic [W-1:0] c_pt0_add132;
     logic [2:0] fl_c_pt0_add132;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add132 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add132 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_c_pt0_mul130), .b(dl_c_pt0_mul131), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(c_pt0_add132), .flags(fl_c_pt0_add132)
     );
@@ -3515,7 +3518,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add137: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add137 = pt0_mul135 + pt0_mul136; friction: t0_add165 = t0_mul163 + t0_mul164)
     logic [W-1:0] c_pt0_add137;
     logic [2:0] fl_c_pt0_add137;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add137 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add137 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_c_pt0_mul135), .b(dl_c_pt0_mul136), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(c_pt0_add137), .flags(fl_c_pt0_add137)
     );
@@ -3531,7 +3534,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_add142_a = kind_q[14] ? dl_c_pt1_mul260 : dl_c_pt0_mul140;
     logic [W-1:0] c_pt0_add142;
     logic [2:0] fl_c_pt0_add142;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add142 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add142 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add142_a), .b(dl_c_pt0_mul141), .sub(1'b0),
         .out_valid(op_valid_nc[80]), .y(c_pt0_add142), .flags(fl_c_pt0_add142)
     );
@@ -3547,7 +3550,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_add147_a = kind_q[14] ? dl_c_pt1_mul265 : dl_c_pt0_mul145;
     logic [W-1:0] c_pt0_add147;
     logic [2:0] fl_c_pt0_add147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add147 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add147_a), .b(dl_c_pt0_mul146), .sub(1'b0),
         .out_valid(op_valid_nc[85]), .y(c_pt0_add147), .flags(fl_c_pt0_add147)
     );
@@ -3563,7 +3566,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add242_b = kind_q[14] ? dl_c_pt1_mul245 : dl_c_pt1_mul241[0*W +: W];
     logic [W-1:0] c_pt1_add242;
     logic [2:0] fl_c_pt1_add242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_c_pt1_mul240), .b(c_pt1_add242_b), .sub(1'b0),
         .out_valid(op_valid_nc[166]), .y(c_pt1_add242), .flags(fl_c_pt1_add242)
     );
@@ -3579,7 +3582,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add247_a = kind_q[14] ? dl_c_pt2_mul361 : dl_c_pt1_mul245;
     logic [W-1:0] c_pt1_add247;
     logic [2:0] fl_c_pt1_add247;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add247 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add247 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt1_add247_a), .b(dl_c_pt1_mul246), .sub(1'b0),
         .out_valid(op_valid_nc[171]), .y(c_pt1_add247), .flags(fl_c_pt1_add247)
     );
@@ -3597,7 +3600,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add252_b = kind_q[14] ? dl_c_pt1_mul248[1*W +: W] : dl_c_pt1_mul251[0*W +: W];
     logic [W-1:0] c_pt1_add252;
     logic [2:0] fl_c_pt1_add252;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add252 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add252 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt1_add252_a), .b(c_pt1_add252_b), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(c_pt1_add252), .flags(fl_c_pt1_add252)
     );
@@ -3613,7 +3616,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add257_a = kind_q[14] ? dl_c_pt2_mul375 : dl_c_pt1_mul255;
     logic [W-1:0] c_pt1_add257;
     logic [2:0] fl_c_pt1_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt1_add257_a), .b(dl_c_pt1_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[181]), .y(c_pt1_add257), .flags(fl_c_pt1_add257)
     );
@@ -3629,7 +3632,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add262_a = kind_q[14] ? dl_c_pt0_mul140 : dl_c_pt1_mul260;
     logic [W-1:0] c_pt1_add262;
     logic [2:0] fl_c_pt1_add262;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add262 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add262 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt1_add262_a), .b(dl_c_pt1_mul261), .sub(1'b0),
         .out_valid(op_valid_nc[186]), .y(c_pt1_add262), .flags(fl_c_pt1_add262)
     );
@@ -3645,7 +3648,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add267_a = kind_q[14] ? dl_c_pt0_mul145 : dl_c_pt1_mul265;
     logic [W-1:0] c_pt1_add267;
     logic [2:0] fl_c_pt1_add267;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add267 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add267 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt1_add267_a), .b(dl_c_pt1_mul266), .sub(1'b0),
         .out_valid(op_valid_nc[191]), .y(c_pt1_add267), .flags(fl_c_pt1_add267)
     );
@@ -3659,7 +3662,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add362: fp_add @14/14/14 -> @18/18/18 (contact: pt2_add362 = pt2_mul360 + pt2_mul361)
     logic [W-1:0] c_pt2_add362;
     logic [2:0] fl_c_pt2_add362;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add362 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add362 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt2_mul360), .b(dl_c_pt2_mul361), .sub(1'b0),
         .out_valid(op_valid_nc[272]), .y(c_pt2_add362), .flags(fl_c_pt2_add362)
     );
@@ -3673,7 +3676,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add367: fp_add @14/14/14 -> @18/18/18 (contact: pt2_add367 = pt2_mul365 + pt2_mul366)
     logic [W-1:0] c_pt2_add367;
     logic [2:0] fl_c_pt2_add367;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add367 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add367 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt2_mul365), .b(dl_c_pt2_mul366), .sub(1'b0),
         .out_valid(op_valid_nc[277]), .y(c_pt2_add367), .flags(fl_c_pt2_add367)
     );
@@ -3687,7 +3690,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add372: fp_add @14/14/14 -> @18/18/18 (contact: pt2_add372 = pt2_mul370 + pt2_mul371)
     logic [W-1:0] c_pt2_add372;
     logic [2:0] fl_c_pt2_add372;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add372 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add372 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt2_mul370), .b(dl_c_pt2_mul371), .sub(1'b0),
         .out_valid(op_valid_nc[282]), .y(c_pt2_add372), .flags(fl_c_pt2_add372)
     );
@@ -3701,7 +3704,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add377: fp_add @14/14/14 -> @18/18/18 (contact: pt2_add377 = pt2_mul375 + pt2_mul376)
     logic [W-1:0] c_pt2_add377;
     logic [2:0] fl_c_pt2_add377;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add377 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add377 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt2_mul375), .b(dl_c_pt2_mul376), .sub(1'b0),
         .out_valid(op_valid_nc[287]), .y(c_pt2_add377), .flags(fl_c_pt2_add377)
     );
@@ -3715,7 +3718,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add382: fp_add @14/14/14 -> @18/18/18 (contact: pt2_add382 = pt2_mul380 + pt2_mul381)
     logic [W-1:0] c_pt2_add382;
     logic [2:0] fl_c_pt2_add382;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add382 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add382 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt2_mul380), .b(dl_c_pt2_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[292]), .y(c_pt2_add382), .flags(fl_c_pt2_add382)
     );
@@ -3729,7 +3732,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add387: fp_add @14/14/14 -> @18/18/18 (contact: pt2_add387 = pt2_mul385 + pt2_mul386)
     logic [W-1:0] c_pt2_add387;
     logic [2:0] fl_c_pt2_add387;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add387 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add387 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt2_mul385), .b(dl_c_pt2_mul386), .sub(1'b0),
         .out_valid(op_valid_nc[297]), .y(c_pt2_add387), .flags(fl_c_pt2_add387)
     );
@@ -3743,7 +3746,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_add482: fp_add @14/14/14 -> @18/18/18 (contact: pt3_add482 = pt3_mul480 + pt3_mul481)
     logic [W-1:0] c_pt3_add482;
     logic [2:0] fl_c_pt3_add482;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add482 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add482 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt3_mul480), .b(dl_c_pt3_mul481), .sub(1'b0),
         .out_valid(op_valid_nc[378]), .y(c_pt3_add482), .flags(fl_c_pt3_add482)
     );
@@ -3757,7 +3760,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_add487: fp_add @14/14/14 -> @18/18/18 (contact: pt3_add487 = pt3_mul485 + pt3_mul486)
     logic [W-1:0] c_pt3_add487;
     logic [2:0] fl_c_pt3_add487;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add487 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add487 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt3_mul485), .b(dl_c_pt3_mul486), .sub(1'b0),
         .out_valid(op_valid_nc[383]), .y(c_pt3_add487), .flags(fl_c_pt3_add487)
     );
@@ -3771,7 +3774,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_add492: fp_add @14/14/14 -> @18/18/18 (contact: pt3_add492 = pt3_mul490 + pt3_mul491)
     logic [W-1:0] c_pt3_add492;
     logic [2:0] fl_c_pt3_add492;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add492 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add492 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt3_mul490), .b(dl_c_pt3_mul491), .sub(1'b0),
         .out_valid(op_valid_nc[388]), .y(c_pt3_add492), .flags(fl_c_pt3_add492)
     );
@@ -3785,7 +3788,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_add497: fp_add @14/14/14 -> @18/18/18 (contact: pt3_add497 = pt3_mul495 + pt3_mul496)
     logic [W-1:0] c_pt3_add497;
     logic [2:0] fl_c_pt3_add497;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add497 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add497 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt3_mul495), .b(dl_c_pt3_mul496), .sub(1'b0),
         .out_valid(op_valid_nc[393]), .y(c_pt3_add497), .flags(fl_c_pt3_add497)
     );
@@ -3799,7 +3802,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_add502: fp_add @14/14/14 -> @18/18/18 (contact: pt3_add502 = pt3_mul500 + pt3_mul501)
     logic [W-1:0] c_pt3_add502;
     logic [2:0] fl_c_pt3_add502;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add502 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add502 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt3_mul500), .b(dl_c_pt3_mul501), .sub(1'b0),
         .out_valid(op_valid_nc[398]), .y(c_pt3_add502), .flags(fl_c_pt3_add502)
     );
@@ -3813,7 +3816,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_add507: fp_add @14/14/14 -> @18/18/18 (contact: pt3_add507 = pt3_mul505 + pt3_mul506)
     logic [W-1:0] c_pt3_add507;
     logic [2:0] fl_c_pt3_add507;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add507 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add507 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt3_mul505), .b(dl_c_pt3_mul506), .sub(1'b0),
         .out_valid(op_valid_nc[403]), .y(c_pt3_add507), .flags(fl_c_pt3_add507)
     );
@@ -3827,7 +3830,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add106: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add106 = pt0_add104 + pt0_mul105; friction: t0_add99 = t0_add97 + t0_mul98)
     logic [W-1:0] c_pt0_add106;
     logic [2:0] fl_c_pt0_add106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add106 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add104), .b(dl_c_pt0_mul105), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(c_pt0_add106), .flags(fl_c_pt0_add106)
     );
@@ -3841,7 +3844,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add111: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add111 = pt0_add109 + pt0_mul110; friction: t0_add104 = t0_add102 + t0_mul103)
     logic [W-1:0] c_pt0_add111;
     logic [2:0] fl_c_pt0_add111;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add111 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add111 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add109), .b(dl_c_pt0_mul110), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(c_pt0_add111), .flags(fl_c_pt0_add111)
     );
@@ -3855,7 +3858,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_angA_x: fp_add @18/18/18 -> @22/22/22 (contact: pt0_angA_x = pt0_add122 + pt0_mul123; friction: t0_angA_x = t0_add129 + t0_mul130)
     logic [W-1:0] c_pt0_angA_x;
     logic [2:0] fl_c_pt0_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add122), .b(dl_c_pt0_mul123), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(c_pt0_angA_x), .flags(fl_c_pt0_angA_x)
     );
@@ -3869,7 +3872,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_angA_y: fp_add @18/18/18 -> @22/22/22 (contact: pt0_angA_y = pt0_add127 + pt0_mul128; friction: t0_angA_y = t0_add134 + t0_mul135)
     logic [W-1:0] c_pt0_angA_y;
     logic [2:0] fl_c_pt0_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add127), .b(dl_c_pt0_mul128), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(c_pt0_angA_y), .flags(fl_c_pt0_angA_y)
     );
@@ -3883,7 +3886,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_angA_z: fp_add @18/18/18 -> @22/22/22 (contact: pt0_angA_z = pt0_add132 + pt0_mul133; friction: t0_angA_z = t0_add139 + t0_mul140)
     logic [W-1:0] c_pt0_angA_z;
     logic [2:0] fl_c_pt0_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add132), .b(dl_c_pt0_mul133), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(c_pt0_angA_z), .flags(fl_c_pt0_angA_z)
     );
@@ -3899,7 +3902,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_angB_x_b = kind_q[18] ? dl_c_pt1_mul258 : dl_c_pt0_mul138;
     logic [W-1:0] c_pt0_angB_x;
     logic [2:0] fl_c_pt0_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add137), .b(c_pt0_angB_x_b), .sub(1'b0),
         .out_valid(op_valid_nc[77]), .y(c_pt0_angB_x), .flags(fl_c_pt0_angB_x)
     );
@@ -3915,7 +3918,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_angB_y_b = kind_q[18] ? dl_c_pt1_mul263 : dl_c_pt0_mul143;
     logic [W-1:0] c_pt0_angB_y;
     logic [2:0] fl_c_pt0_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add142), .b(c_pt0_angB_y_b), .sub(1'b0),
         .out_valid(op_valid_nc[82]), .y(c_pt0_angB_y), .flags(fl_c_pt0_angB_y)
     );
@@ -3931,7 +3934,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_angB_z_b = kind_q[18] ? dl_c_pt1_mul268 : dl_c_pt0_mul148;
     logic [W-1:0] c_pt0_angB_z;
     logic [2:0] fl_c_pt0_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add147), .b(c_pt0_angB_z_b), .sub(1'b0),
         .out_valid(op_valid_nc[87]), .y(c_pt0_angB_z), .flags(fl_c_pt0_angB_z)
     );
@@ -3947,7 +3950,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_angA_x_b = kind_q[18] ? dl_c_pt1_mul241[1*W +: W] : dl_c_pt1_mul243[0*W +: W];
     logic [W-1:0] c_pt1_angA_x;
     logic [2:0] fl_c_pt1_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt1_add242), .b(c_pt1_angA_x_b), .sub(1'b0),
         .out_valid(op_valid_nc[168]), .y(c_pt1_angA_x), .flags(fl_c_pt1_angA_x)
     );
@@ -3963,7 +3966,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_angA_y_b = kind_q[18] ? dl_c_pt1_mul251[1*W +: W] : dl_c_pt1_mul248[0*W +: W];
     logic [W-1:0] c_pt1_angA_y;
     logic [2:0] fl_c_pt1_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt1_add247), .b(c_pt1_angA_y_b), .sub(1'b0),
         .out_valid(op_valid_nc[173]), .y(c_pt1_angA_y), .flags(fl_c_pt1_angA_y)
     );
@@ -3977,7 +3980,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_angA_z: fp_add @18/18/18 -> @22/22/22 (contact: pt1_angA_z = pt1_add252 + pt1_mul253; friction: t1_angA_z = t1_add260 + t1_mul261)
     logic [W-1:0] c_pt1_angA_z;
     logic [2:0] fl_c_pt1_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt1_add252), .b(dl_c_pt1_mul253), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(c_pt1_angA_z), .flags(fl_c_pt1_angA_z)
     );
@@ -3993,7 +3996,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_angB_x_b = kind_q[18] ? dl_c_pt0_mul138 : dl_c_pt1_mul258;
     logic [W-1:0] c_pt1_angB_x;
     logic [2:0] fl_c_pt1_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt1_add257), .b(c_pt1_angB_x_b), .sub(1'b0),
         .out_valid(op_valid_nc[183]), .y(c_pt1_angB_x), .flags(fl_c_pt1_angB_x)
     );
@@ -4009,7 +4012,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_angB_y_b = kind_q[18] ? dl_c_pt0_mul143 : dl_c_pt1_mul263;
     logic [W-1:0] c_pt1_angB_y;
     logic [2:0] fl_c_pt1_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt1_add262), .b(c_pt1_angB_y_b), .sub(1'b0),
         .out_valid(op_valid_nc[188]), .y(c_pt1_angB_y), .flags(fl_c_pt1_angB_y)
     );
@@ -4025,7 +4028,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_angB_z_b = kind_q[18] ? dl_c_pt0_mul148 : dl_c_pt1_mul268;
     logic [W-1:0] c_pt1_angB_z;
     logic [2:0] fl_c_pt1_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt1_add267), .b(c_pt1_angB_z_b), .sub(1'b0),
         .out_valid(op_valid_nc[193]), .y(c_pt1_angB_z), .flags(fl_c_pt1_angB_z)
     );
@@ -4039,7 +4042,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_angA_x: fp_add @18/18/18 -> @22/22/22 (contact: pt2_angA_x = pt2_add362 + pt2_mul363)
     logic [W-1:0] c_pt2_angA_x;
     logic [2:0] fl_c_pt2_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt2_add362), .b(dl_c_pt2_mul363), .sub(1'b0),
         .out_valid(op_valid_nc[274]), .y(c_pt2_angA_x), .flags(fl_c_pt2_angA_x)
     );
@@ -4053,7 +4056,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_angA_y: fp_add @18/18/18 -> @22/22/22 (contact: pt2_angA_y = pt2_add367 + pt2_mul368)
     logic [W-1:0] c_pt2_angA_y;
     logic [2:0] fl_c_pt2_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt2_add367), .b(dl_c_pt2_mul368), .sub(1'b0),
         .out_valid(op_valid_nc[279]), .y(c_pt2_angA_y), .flags(fl_c_pt2_angA_y)
     );
@@ -4067,7 +4070,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_angA_z: fp_add @18/18/18 -> @22/22/22 (contact: pt2_angA_z = pt2_add372 + pt2_mul373)
     logic [W-1:0] c_pt2_angA_z;
     logic [2:0] fl_c_pt2_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt2_add372), .b(dl_c_pt2_mul373), .sub(1'b0),
         .out_valid(op_valid_nc[284]), .y(c_pt2_angA_z), .flags(fl_c_pt2_angA_z)
     );
@@ -4081,7 +4084,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_angB_x: fp_add @18/18/18 -> @22/22/22 (contact: pt2_angB_x = pt2_add377 + pt2_mul378)
     logic [W-1:0] c_pt2_angB_x;
     logic [2:0] fl_c_pt2_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt2_add377), .b(dl_c_pt2_mul378), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(c_pt2_angB_x), .flags(fl_c_pt2_angB_x)
     );
@@ -4095,7 +4098,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_angB_y: fp_add @18/18/18 -> @22/22/22 (contact: pt2_angB_y = pt2_add382 + pt2_mul383)
     logic [W-1:0] c_pt2_angB_y;
     logic [2:0] fl_c_pt2_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt2_add382), .b(dl_c_pt2_mul383), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(c_pt2_angB_y), .flags(fl_c_pt2_angB_y)
     );
@@ -4109,7 +4112,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_angB_z: fp_add @18/18/18 -> @22/22/22 (contact: pt2_angB_z = pt2_add387 + pt2_mul388)
     logic [W-1:0] c_pt2_angB_z;
     logic [2:0] fl_c_pt2_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt2_add387), .b(dl_c_pt2_mul388), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(c_pt2_angB_z), .flags(fl_c_pt2_angB_z)
     );
@@ -4123,7 +4126,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_angA_x: fp_add @18/18/18 -> @22/22/22 (contact: pt3_angA_x = pt3_add482 + pt3_mul483)
     logic [W-1:0] c_pt3_angA_x;
     logic [2:0] fl_c_pt3_angA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_angA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_angA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt3_add482), .b(dl_c_pt3_mul483), .sub(1'b0),
         .out_valid(op_valid_nc[380]), .y(c_pt3_angA_x), .flags(fl_c_pt3_angA_x)
     );
@@ -4137,7 +4140,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_angA_y: fp_add @18/18/18 -> @22/22/22 (contact: pt3_angA_y = pt3_add487 + pt3_mul488)
     logic [W-1:0] c_pt3_angA_y;
     logic [2:0] fl_c_pt3_angA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_angA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_angA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt3_add487), .b(dl_c_pt3_mul488), .sub(1'b0),
         .out_valid(op_valid_nc[385]), .y(c_pt3_angA_y), .flags(fl_c_pt3_angA_y)
     );
@@ -4151,7 +4154,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_angA_z: fp_add @18/18/18 -> @22/22/22 (contact: pt3_angA_z = pt3_add492 + pt3_mul493)
     logic [W-1:0] c_pt3_angA_z;
     logic [2:0] fl_c_pt3_angA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_angA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_angA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt3_add492), .b(dl_c_pt3_mul493), .sub(1'b0),
         .out_valid(op_valid_nc[390]), .y(c_pt3_angA_z), .flags(fl_c_pt3_angA_z)
     );
@@ -4165,7 +4168,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_angB_x: fp_add @18/18/18 -> @22/22/22 (contact: pt3_angB_x = pt3_add497 + pt3_mul498)
     logic [W-1:0] c_pt3_angB_x;
     logic [2:0] fl_c_pt3_angB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_angB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_angB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt3_add497), .b(dl_c_pt3_mul498), .sub(1'b0),
         .out_valid(op_valid_nc[395]), .y(c_pt3_angB_x), .flags(fl_c_pt3_angB_x)
     );
@@ -4179,7 +4182,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_angB_y: fp_add @18/18/18 -> @22/22/22 (contact: pt3_angB_y = pt3_add502 + pt3_mul503)
     logic [W-1:0] c_pt3_angB_y;
     logic [2:0] fl_c_pt3_angB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_angB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_angB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt3_add502), .b(dl_c_pt3_mul503), .sub(1'b0),
         .out_valid(op_valid_nc[400]), .y(c_pt3_angB_y), .flags(fl_c_pt3_angB_y)
     );
@@ -4193,7 +4196,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_angB_z: fp_add @18/18/18 -> @22/22/22 (contact: pt3_angB_z = pt3_add507 + pt3_mul508)
     logic [W-1:0] c_pt3_angB_z;
     logic [2:0] fl_c_pt3_angB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_angB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_angB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt3_add507), .b(dl_c_pt3_mul508), .sub(1'b0),
         .out_valid(op_valid_nc[405]), .y(c_pt3_angB_z), .flags(fl_c_pt3_angB_z)
     );
@@ -4207,7 +4210,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub112: fp_add @22/22/22 -> @26/26/26 (contact: pt0_sub112 = pt0_add106 - pt0_add111; friction: t0_sub105 = t0_add99 - t0_add104)
     logic [W-1:0] c_pt0_sub112;
     logic [2:0] fl_c_pt0_sub112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub112 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_c_pt0_add106), .b(dl_c_pt0_add111), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(c_pt0_sub112), .flags(fl_c_pt0_sub112)
     );
@@ -4221,7 +4224,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_vrel: fp_add @26/26/26 -> @30/30/30 (contact: pt0_vrel = pt0_sub101 + pt0_sub112; friction: t0_u = t0_sub94 + t0_sub105)
     logic [W-1:0] c_pt0_vrel;
     logic [2:0] fl_c_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_c_pt0_sub101), .b(dl_c_pt0_sub112), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(c_pt0_vrel), .flags(fl_c_pt0_vrel)
     );
@@ -4242,7 +4245,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add114: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add114 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add114;
     logic [2:0] fl_c_pt0_add114;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add114 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add114 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[30]), .a(dl_c_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(c_pt0_add114), .flags(fl_c_pt0_add114)
     );
@@ -4276,7 +4279,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt0_add116_a = kind_q[37] ? dl_in_lamT0[0*W +: W] : dl_in_lam0[0*W +: W];
     logic [W-1:0] c_pt0_add116;
     logic [2:0] fl_c_pt0_add116;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add116 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add116 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(c_pt0_add116_a), .b(dl_c_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(c_pt0_add116), .flags(fl_c_pt0_add116)
     );
@@ -4309,7 +4312,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[42]), .a(dl_c_pt0_lam_new_max[0*W +: W]), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(c_pt0_delta), .flags(fl_c_pt0_delta)
     );
@@ -4491,7 +4494,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add153: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add153 = vA_x + pt0_mul150)
     logic [W-1:0] c_pt0_add153;
     logic [2:0] fl_c_pt0_add153;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add153 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add153 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_c_pt0_mul150), .sub(1'b0),
         .out_valid(op_valid_nc[91]), .y(c_pt0_add153), .flags(fl_c_pt0_add153)
     );
@@ -4505,7 +4508,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add154: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add154 = vA_y + pt0_mul151)
     logic [W-1:0] c_pt0_add154;
     logic [2:0] fl_c_pt0_add154;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add154 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add154 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_c_pt0_mul151), .sub(1'b0),
         .out_valid(op_valid_nc[92]), .y(c_pt0_add154), .flags(fl_c_pt0_add154)
     );
@@ -4519,7 +4522,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add155: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add155 = vA_z + pt0_mul152)
     logic [W-1:0] c_pt0_add155;
     logic [2:0] fl_c_pt0_add155;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add155 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add155 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_c_pt0_mul152), .sub(1'b0),
         .out_valid(op_valid_nc[93]), .y(c_pt0_add155), .flags(fl_c_pt0_add155)
     );
@@ -4533,7 +4536,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add162: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add162 = wA_x + pt0_mul159)
     logic [W-1:0] c_pt0_add162;
     logic [2:0] fl_c_pt0_add162;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add162 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add162 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_c_pt0_mul159), .sub(1'b0),
         .out_valid(op_valid_nc[97]), .y(c_pt0_add162), .flags(fl_c_pt0_add162)
     );
@@ -4547,7 +4550,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add163: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add163 = wA_y + pt0_mul160)
     logic [W-1:0] c_pt0_add163;
     logic [2:0] fl_c_pt0_add163;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add163 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add163 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_c_pt0_mul160), .sub(1'b0),
         .out_valid(op_valid_nc[98]), .y(c_pt0_add163), .flags(fl_c_pt0_add163)
     );
@@ -4561,7 +4564,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_add164: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add164 = wA_z + pt0_mul161)
     logic [W-1:0] c_pt0_add164;
     logic [2:0] fl_c_pt0_add164;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add164 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add164 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_c_pt0_mul161), .sub(1'b0),
         .out_valid(op_valid_nc[99]), .y(c_pt0_add164), .flags(fl_c_pt0_add164)
     );
@@ -4575,7 +4578,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub171: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub171 = vB_x - pt0_mul168)
     logic [W-1:0] c_pt0_sub171;
     logic [2:0] fl_c_pt0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_c_pt0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(c_pt0_sub171), .flags(fl_c_pt0_sub171)
     );
@@ -4589,7 +4592,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub172: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub172 = vB_y - pt0_mul169)
     logic [W-1:0] c_pt0_sub172;
     logic [2:0] fl_c_pt0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_c_pt0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[104]), .y(c_pt0_sub172), .flags(fl_c_pt0_sub172)
     );
@@ -4603,7 +4606,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub173: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub173 = vB_z - pt0_mul170)
     logic [W-1:0] c_pt0_sub173;
     logic [2:0] fl_c_pt0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_c_pt0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(c_pt0_sub173), .flags(fl_c_pt0_sub173)
     );
@@ -4617,7 +4620,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub180: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub180 = wB_x - pt0_mul177)
     logic [W-1:0] c_pt0_sub180;
     logic [2:0] fl_c_pt0_sub180;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub180 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub180 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_c_pt0_mul177), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(c_pt0_sub180), .flags(fl_c_pt0_sub180)
     );
@@ -4631,7 +4634,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub181: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub181 = wB_y - pt0_mul178)
     logic [W-1:0] c_pt0_sub181;
     logic [2:0] fl_c_pt0_sub181;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub181 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub181 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_c_pt0_mul178), .sub(1'b1),
         .out_valid(op_valid_nc[110]), .y(c_pt0_sub181), .flags(fl_c_pt0_sub181)
     );
@@ -4645,7 +4648,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt0_sub182: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub182 = wB_z - pt0_mul179)
     logic [W-1:0] c_pt0_sub182;
     logic [2:0] fl_c_pt0_sub182;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub182 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub182 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_c_pt0_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(c_pt0_sub182), .flags(fl_c_pt0_sub182)
     );
@@ -4911,7 +4914,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add213: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add213 = pt1_mul211 + pt1_mul212)
     logic [W-1:0] c_pt1_add213;
     logic [2:0] fl_c_pt1_add213;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add213 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add213 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul211), .b(dl_c_pt1_mul212), .sub(1'b0),
         .out_valid(op_valid_nc[138]), .y(c_pt1_add213), .flags(fl_c_pt1_add213)
     );
@@ -4925,7 +4928,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add218: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add218 = pt1_mul216 + pt1_mul217)
     logic [W-1:0] c_pt1_add218;
     logic [2:0] fl_c_pt1_add218;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add218 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add218 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul216), .b(dl_c_pt1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[143]), .y(c_pt1_add218), .flags(fl_c_pt1_add218)
     );
@@ -4939,7 +4942,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add224: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add224 = pt1_mul222 + pt1_mul223)
     logic [W-1:0] c_pt1_add224;
     logic [2:0] fl_c_pt1_add224;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add224 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add224 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul222), .b(dl_c_pt1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(c_pt1_add224), .flags(fl_c_pt1_add224)
     );
@@ -4953,7 +4956,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add229: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add229 = pt1_mul227 + pt1_mul228)
     logic [W-1:0] c_pt1_add229;
     logic [2:0] fl_c_pt1_add229;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add229 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add229 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul227), .b(dl_c_pt1_mul228), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(c_pt1_add229), .flags(fl_c_pt1_add229)
     );
@@ -4967,7 +4970,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add215: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add215 = pt1_add213 + pt1_mul214)
     logic [W-1:0] c_pt1_add215;
     logic [2:0] fl_c_pt1_add215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add215 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add213), .b(dl_c_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[140]), .y(c_pt1_add215), .flags(fl_c_pt1_add215)
     );
@@ -4981,7 +4984,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add220: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add220 = pt1_add218 + pt1_mul219)
     logic [W-1:0] c_pt1_add220;
     logic [2:0] fl_c_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add218), .b(dl_c_pt1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[145]), .y(c_pt1_add220), .flags(fl_c_pt1_add220)
     );
@@ -4995,7 +4998,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add226: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add226 = pt1_add224 + pt1_mul225)
     logic [W-1:0] c_pt1_add226;
     logic [2:0] fl_c_pt1_add226;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add226 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add226 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add224), .b(dl_c_pt1_mul225), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(c_pt1_add226), .flags(fl_c_pt1_add226)
     );
@@ -5009,7 +5012,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add231: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add231 = pt1_add229 + pt1_mul230)
     logic [W-1:0] c_pt1_add231;
     logic [2:0] fl_c_pt1_add231;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add231 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add231 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add229), .b(dl_c_pt1_mul230), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(c_pt1_add231), .flags(fl_c_pt1_add231)
     );
@@ -5023,7 +5026,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_sub221: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub221 = pt1_add215 - pt1_add220)
     logic [W-1:0] c_pt1_sub221;
     logic [2:0] fl_c_pt1_sub221;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub221 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub221 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add215), .b(dl_c_pt1_add220), .sub(1'b1),
         .out_valid(op_valid_nc[146]), .y(c_pt1_sub221), .flags(fl_c_pt1_sub221)
     );
@@ -5037,7 +5040,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_sub232: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub232 = pt1_add226 - pt1_add231)
     logic [W-1:0] c_pt1_sub232;
     logic [2:0] fl_c_pt1_sub232;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub232 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub232 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add226), .b(dl_c_pt1_add231), .sub(1'b1),
         .out_valid(op_valid_nc[157]), .y(c_pt1_sub232), .flags(fl_c_pt1_sub232)
     );
@@ -5051,7 +5054,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub221 + pt1_sub232)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[68]), .a(dl_c_pt1_sub221), .b(dl_c_pt1_sub232), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(c_pt1_vrel), .flags(fl_c_pt1_vrel)
     );
@@ -5065,7 +5068,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add234: fp_add @72/72/72 -> @76/76/76 (contact: pt1_add234 = pt1_vrel + b1)
     logic [W-1:0] c_pt1_add234;
     logic [2:0] fl_c_pt1_add234;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add234 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add234 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[72]), .a(dl_c_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[159]), .y(c_pt1_add234), .flags(fl_c_pt1_add234)
     );
@@ -5093,7 +5096,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt1_add236: fp_add @79/79/79 -> @83/83/83 (contact: pt1_add236 = lam1 + pt1_delta0)
     logic [W-1:0] c_pt1_add236;
     logic [2:0] fl_c_pt1_add236;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add236 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add236 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_c_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[161]), .y(c_pt1_add236), .flags(fl_c_pt1_add236)
     );
@@ -5143,7 +5146,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_delta_b = kind_q[84] ? dl_in_lamT0[1*W +: W] : dl_in_lam1[1*W +: W];
     logic [W-1:0] c_pt1_delta;
     logic [2:0] fl_c_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(c_pt1_delta_a), .b(c_pt1_delta_b), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(c_pt1_delta), .flags(fl_c_pt1_delta)
     );
@@ -5370,7 +5373,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add273_a = kind_q[91] ? dl_in_vA_x[3*W +: W] : dl_c_pt0_vA_x[1*W +: W];
     logic [W-1:0] c_pt1_add273;
     logic [2:0] fl_c_pt1_add273;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add273 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add273 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add273_a), .b(dl_c_pt1_mul270), .sub(1'b0),
         .out_valid(op_valid_nc[197]), .y(c_pt1_add273), .flags(fl_c_pt1_add273)
     );
@@ -5386,7 +5389,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add274_a = kind_q[91] ? dl_in_vA_y[3*W +: W] : dl_c_pt0_vA_y[1*W +: W];
     logic [W-1:0] c_pt1_add274;
     logic [2:0] fl_c_pt1_add274;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add274 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add274 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add274_a), .b(dl_c_pt1_mul271), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(c_pt1_add274), .flags(fl_c_pt1_add274)
     );
@@ -5402,7 +5405,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add275_a = kind_q[91] ? dl_in_vA_z[3*W +: W] : dl_c_pt0_vA_z[1*W +: W];
     logic [W-1:0] c_pt1_add275;
     logic [2:0] fl_c_pt1_add275;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add275 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add275 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add275_a), .b(dl_c_pt1_mul272), .sub(1'b0),
         .out_valid(op_valid_nc[199]), .y(c_pt1_add275), .flags(fl_c_pt1_add275)
     );
@@ -5418,7 +5421,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add282_a = kind_q[91] ? dl_in_wA_x[3*W +: W] : dl_c_pt0_wA_x[1*W +: W];
     logic [W-1:0] c_pt1_add282;
     logic [2:0] fl_c_pt1_add282;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add282 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add282 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add282_a), .b(dl_c_pt1_mul279), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(c_pt1_add282), .flags(fl_c_pt1_add282)
     );
@@ -5434,7 +5437,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add283_a = kind_q[91] ? dl_in_wA_y[3*W +: W] : dl_c_pt0_wA_y[1*W +: W];
     logic [W-1:0] c_pt1_add283;
     logic [2:0] fl_c_pt1_add283;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add283 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add283 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add283_a), .b(dl_c_pt1_mul280), .sub(1'b0),
         .out_valid(op_valid_nc[204]), .y(c_pt1_add283), .flags(fl_c_pt1_add283)
     );
@@ -5450,7 +5453,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_add284_a = kind_q[91] ? dl_in_wA_z[3*W +: W] : dl_c_pt0_wA_z[1*W +: W];
     logic [W-1:0] c_pt1_add284;
     logic [2:0] fl_c_pt1_add284;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add284 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add284 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add284_a), .b(dl_c_pt1_mul281), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(c_pt1_add284), .flags(fl_c_pt1_add284)
     );
@@ -5466,7 +5469,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_sub291_a = kind_q[91] ? dl_in_vB_x[3*W +: W] : dl_c_pt0_vB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub291;
     logic [2:0] fl_c_pt1_sub291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub291 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub291_a), .b(dl_c_pt1_mul288), .sub(1'b1),
         .out_valid(op_valid_nc[209]), .y(c_pt1_sub291), .flags(fl_c_pt1_sub291)
     );
@@ -5482,7 +5485,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_sub292_a = kind_q[91] ? dl_in_vB_y[3*W +: W] : dl_c_pt0_vB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub292;
     logic [2:0] fl_c_pt1_sub292;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub292 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub292 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub292_a), .b(dl_c_pt1_mul289), .sub(1'b1),
         .out_valid(op_valid_nc[210]), .y(c_pt1_sub292), .flags(fl_c_pt1_sub292)
     );
@@ -5498,7 +5501,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_sub293_a = kind_q[91] ? dl_in_vB_z[3*W +: W] : dl_c_pt0_vB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub293;
     logic [2:0] fl_c_pt1_sub293;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub293 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub293 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub293_a), .b(dl_c_pt1_mul290), .sub(1'b1),
         .out_valid(op_valid_nc[211]), .y(c_pt1_sub293), .flags(fl_c_pt1_sub293)
     );
@@ -5514,7 +5517,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_sub300_a = kind_q[91] ? dl_in_wB_x[3*W +: W] : dl_c_pt0_wB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub300;
     logic [2:0] fl_c_pt1_sub300;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub300 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub300 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub300_a), .b(dl_c_pt1_mul297), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(c_pt1_sub300), .flags(fl_c_pt1_sub300)
     );
@@ -5530,7 +5533,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_sub301_a = kind_q[91] ? dl_in_wB_y[3*W +: W] : dl_c_pt0_wB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub301;
     logic [2:0] fl_c_pt1_sub301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub301 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub301_a), .b(dl_c_pt1_mul298), .sub(1'b1),
         .out_valid(op_valid_nc[216]), .y(c_pt1_sub301), .flags(fl_c_pt1_sub301)
     );
@@ -5546,7 +5549,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt1_sub302_a = kind_q[91] ? dl_in_wB_z[3*W +: W] : dl_c_pt0_wB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub302;
     logic [2:0] fl_c_pt1_sub302;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub302 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub302 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub302_a), .b(dl_c_pt1_mul299), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(c_pt1_sub302), .flags(fl_c_pt1_sub302)
     );
@@ -5944,7 +5947,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add333: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add333 = pt2_mul331 + pt2_mul332; friction: t1_add207 = t1_mul205 + t1_mul206)
     logic [W-1:0] c_pt2_add333;
     logic [2:0] fl_c_pt2_add333;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add333 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add333 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul331), .b(dl_c_pt2_mul332), .sub(1'b0),
         .out_valid(op_valid_nc[244]), .y(c_pt2_add333), .flags(fl_c_pt2_add333)
     );
@@ -5958,7 +5961,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add338: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add338 = pt2_mul336 + pt2_mul337; friction: t1_add212 = t1_mul210 + t1_mul211)
     logic [W-1:0] c_pt2_add338;
     logic [2:0] fl_c_pt2_add338;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add338 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add338 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul336), .b(dl_c_pt2_mul337), .sub(1'b0),
         .out_valid(op_valid_nc[249]), .y(c_pt2_add338), .flags(fl_c_pt2_add338)
     );
@@ -5972,7 +5975,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add344: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add344 = pt2_mul342 + pt2_mul343; friction: t1_add218 = t1_mul216 + t1_mul217)
     logic [W-1:0] c_pt2_add344;
     logic [2:0] fl_c_pt2_add344;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add344 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add344 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul342), .b(dl_c_pt2_mul343), .sub(1'b0),
         .out_valid(op_valid_nc[255]), .y(c_pt2_add344), .flags(fl_c_pt2_add344)
     );
@@ -5986,7 +5989,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add349: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add349 = pt2_mul347 + pt2_mul348; friction: t1_add223 = t1_mul221 + t1_mul222)
     logic [W-1:0] c_pt2_add349;
     logic [2:0] fl_c_pt2_add349;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add349 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add349 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul347), .b(dl_c_pt2_mul348), .sub(1'b0),
         .out_valid(op_valid_nc[260]), .y(c_pt2_add349), .flags(fl_c_pt2_add349)
     );
@@ -6000,7 +6003,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add335: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add335 = pt2_add333 + pt2_mul334; friction: t1_add209 = t1_add207 + t1_mul208)
     logic [W-1:0] c_pt2_add335;
     logic [2:0] fl_c_pt2_add335;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add335 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add335 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add333), .b(dl_c_pt2_mul334), .sub(1'b0),
         .out_valid(op_valid_nc[246]), .y(c_pt2_add335), .flags(fl_c_pt2_add335)
     );
@@ -6014,7 +6017,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add340: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add340 = pt2_add338 + pt2_mul339; friction: t1_add214 = t1_add212 + t1_mul213)
     logic [W-1:0] c_pt2_add340;
     logic [2:0] fl_c_pt2_add340;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add340 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add340 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add338), .b(dl_c_pt2_mul339), .sub(1'b0),
         .out_valid(op_valid_nc[251]), .y(c_pt2_add340), .flags(fl_c_pt2_add340)
     );
@@ -6028,7 +6031,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add346: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add346 = pt2_add344 + pt2_mul345; friction: t1_add220 = t1_add218 + t1_mul219)
     logic [W-1:0] c_pt2_add346;
     logic [2:0] fl_c_pt2_add346;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add346 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add346 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add344), .b(dl_c_pt2_mul345), .sub(1'b0),
         .out_valid(op_valid_nc[257]), .y(c_pt2_add346), .flags(fl_c_pt2_add346)
     );
@@ -6042,7 +6045,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add351: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add351 = pt2_add349 + pt2_mul350; friction: t1_add225 = t1_add223 + t1_mul224)
     logic [W-1:0] c_pt2_add351;
     logic [2:0] fl_c_pt2_add351;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add351 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add351 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add349), .b(dl_c_pt2_mul350), .sub(1'b0),
         .out_valid(op_valid_nc[262]), .y(c_pt2_add351), .flags(fl_c_pt2_add351)
     );
@@ -6056,7 +6059,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub341: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub341 = pt2_add335 - pt2_add340; friction: t1_sub215 = t1_add209 - t1_add214)
     logic [W-1:0] c_pt2_sub341;
     logic [2:0] fl_c_pt2_sub341;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub341 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub341 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add335), .b(dl_c_pt2_add340), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(c_pt2_sub341), .flags(fl_c_pt2_sub341)
     );
@@ -6070,7 +6073,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub352: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub352 = pt2_add346 - pt2_add351; friction: t1_sub226 = t1_add220 - t1_add225)
     logic [W-1:0] c_pt2_sub352;
     logic [2:0] fl_c_pt2_sub352;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub352 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub352 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add346), .b(dl_c_pt2_add351), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(c_pt2_sub352), .flags(fl_c_pt2_sub352)
     );
@@ -6084,7 +6087,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub341 + pt2_sub352; friction: t1_u = t1_sub215 + t1_sub226)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_c_pt2_sub341), .b(dl_c_pt2_sub352), .sub(1'b0),
         .out_valid(op_valid_nc[264]), .y(c_pt2_vrel), .flags(fl_c_pt2_vrel)
     );
@@ -6105,7 +6108,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add354: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add354 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add354;
     logic [2:0] fl_c_pt2_add354;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add354 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add354 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[114]), .a(dl_c_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[265]), .y(c_pt2_add354), .flags(fl_c_pt2_add354)
     );
@@ -6139,7 +6142,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt2_add356_a = kind_q[121] ? dl_in_lamT1[0*W +: W] : dl_in_lam2[0*W +: W];
     logic [W-1:0] c_pt2_add356;
     logic [2:0] fl_c_pt2_add356;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add356 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add356 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(c_pt2_add356_a), .b(dl_c_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[267]), .y(c_pt2_add356), .flags(fl_c_pt2_add356)
     );
@@ -6172,7 +6175,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2)
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[126]), .a(dl_c_pt2_lam_new_max), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(c_pt2_delta), .flags(fl_c_pt2_delta)
     );
@@ -6375,7 +6378,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt2_add393_b = kind_q[133] ? dl_in_lamT1[1*W +: W] : dl_c_pt2_mul390;
     logic [W-1:0] c_pt2_add393;
     logic [2:0] fl_c_pt2_add393;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add393 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add393 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(c_pt2_add393_a), .b(c_pt2_add393_b), .sub(kind_q[133]),
         .out_valid(op_valid_nc[303]), .y(c_pt2_add393), .flags(fl_c_pt2_add393)
     );
@@ -6389,7 +6392,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add394: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add394 = pt1_vA_y + pt2_mul391)
     logic [W-1:0] c_pt2_add394;
     logic [2:0] fl_c_pt2_add394;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add394 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add394 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_y[1*W +: W]), .b(dl_c_pt2_mul391), .sub(1'b0),
         .out_valid(op_valid_nc[304]), .y(c_pt2_add394), .flags(fl_c_pt2_add394)
     );
@@ -6403,7 +6406,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add395: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add395 = pt1_vA_z + pt2_mul392)
     logic [W-1:0] c_pt2_add395;
     logic [2:0] fl_c_pt2_add395;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add395 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add395 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_z[1*W +: W]), .b(dl_c_pt2_mul392), .sub(1'b0),
         .out_valid(op_valid_nc[305]), .y(c_pt2_add395), .flags(fl_c_pt2_add395)
     );
@@ -6417,7 +6420,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add402: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add402 = pt1_wA_x + pt2_mul399)
     logic [W-1:0] c_pt2_add402;
     logic [2:0] fl_c_pt2_add402;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add402 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add402 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_x[1*W +: W]), .b(dl_c_pt2_mul399), .sub(1'b0),
         .out_valid(op_valid_nc[309]), .y(c_pt2_add402), .flags(fl_c_pt2_add402)
     );
@@ -6431,7 +6434,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add403: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add403 = pt1_wA_y + pt2_mul400)
     logic [W-1:0] c_pt2_add403;
     logic [2:0] fl_c_pt2_add403;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add403 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add403 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_y[1*W +: W]), .b(dl_c_pt2_mul400), .sub(1'b0),
         .out_valid(op_valid_nc[310]), .y(c_pt2_add403), .flags(fl_c_pt2_add403)
     );
@@ -6445,7 +6448,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_add404: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add404 = pt1_wA_z + pt2_mul401)
     logic [W-1:0] c_pt2_add404;
     logic [2:0] fl_c_pt2_add404;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add404 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add404 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_z[1*W +: W]), .b(dl_c_pt2_mul401), .sub(1'b0),
         .out_valid(op_valid_nc[311]), .y(c_pt2_add404), .flags(fl_c_pt2_add404)
     );
@@ -6459,7 +6462,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub411: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub411 = pt1_vB_x - pt2_mul408)
     logic [W-1:0] c_pt2_sub411;
     logic [2:0] fl_c_pt2_sub411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub411 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_x[1*W +: W]), .b(dl_c_pt2_mul408), .sub(1'b1),
         .out_valid(op_valid_nc[315]), .y(c_pt2_sub411), .flags(fl_c_pt2_sub411)
     );
@@ -6473,7 +6476,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub412: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub412 = pt1_vB_y - pt2_mul409)
     logic [W-1:0] c_pt2_sub412;
     logic [2:0] fl_c_pt2_sub412;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub412 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub412 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_y[1*W +: W]), .b(dl_c_pt2_mul409), .sub(1'b1),
         .out_valid(op_valid_nc[316]), .y(c_pt2_sub412), .flags(fl_c_pt2_sub412)
     );
@@ -6487,7 +6490,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub413: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub413 = pt1_vB_z - pt2_mul410)
     logic [W-1:0] c_pt2_sub413;
     logic [2:0] fl_c_pt2_sub413;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub413 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub413 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_z[1*W +: W]), .b(dl_c_pt2_mul410), .sub(1'b1),
         .out_valid(op_valid_nc[317]), .y(c_pt2_sub413), .flags(fl_c_pt2_sub413)
     );
@@ -6501,7 +6504,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub420: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub420 = pt1_wB_x - pt2_mul417)
     logic [W-1:0] c_pt2_sub420;
     logic [2:0] fl_c_pt2_sub420;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub420 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub420 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_x[1*W +: W]), .b(dl_c_pt2_mul417), .sub(1'b1),
         .out_valid(op_valid_nc[321]), .y(c_pt2_sub420), .flags(fl_c_pt2_sub420)
     );
@@ -6515,7 +6518,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub421: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub421 = pt1_wB_y - pt2_mul418)
     logic [W-1:0] c_pt2_sub421;
     logic [2:0] fl_c_pt2_sub421;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub421 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub421 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_y[1*W +: W]), .b(dl_c_pt2_mul418), .sub(1'b1),
         .out_valid(op_valid_nc[322]), .y(c_pt2_sub421), .flags(fl_c_pt2_sub421)
     );
@@ -6529,7 +6532,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt2_sub422: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub422 = pt1_wB_z - pt2_mul419)
     logic [W-1:0] c_pt2_sub422;
     logic [2:0] fl_c_pt2_sub422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub422 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_z[1*W +: W]), .b(dl_c_pt2_mul419), .sub(1'b1),
         .out_valid(op_valid_nc[323]), .y(c_pt2_sub422), .flags(fl_c_pt2_sub422)
     );
@@ -6852,7 +6855,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add453_b = kind_q[140] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_mul452;
     logic [W-1:0] c_pt3_add453;
     logic [2:0] fl_c_pt3_add453;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add453 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add453 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_c_pt3_mul451), .b(c_pt3_add453_b), .sub(1'b0),
         .out_valid(op_valid_nc[350]), .y(c_pt3_add453), .flags(fl_c_pt3_add453)
     );
@@ -6870,7 +6873,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add458_b = kind_q[140] ? dl_c_pt3_mul452 : dl_c_pt3_mul457;
     logic [W-1:0] c_pt3_add458;
     logic [2:0] fl_c_pt3_add458;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add458 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add458 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add458_a), .b(c_pt3_add458_b), .sub(1'b0),
         .out_valid(op_valid_nc[355]), .y(c_pt3_add458), .flags(fl_c_pt3_add458)
     );
@@ -6888,7 +6891,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add464_b = kind_q[140] ? dl_c_pt3_mul456 : dl_c_pt3_mul463[0*W +: W];
     logic [W-1:0] c_pt3_add464;
     logic [2:0] fl_c_pt3_add464;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add464 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add464 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add464_a), .b(c_pt3_add464_b), .sub(1'b0),
         .out_valid(op_valid_nc[361]), .y(c_pt3_add464), .flags(fl_c_pt3_add464)
     );
@@ -6906,7 +6909,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add469_b = kind_q[140] ? dl_c_pt3_mul457 : dl_c_pt3_mul468[0*W +: W];
     logic [W-1:0] c_pt3_add469;
     logic [2:0] fl_c_pt3_add469;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add469 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add469 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add469_a), .b(c_pt3_add469_b), .sub(1'b0),
         .out_valid(op_valid_nc[366]), .y(c_pt3_add469), .flags(fl_c_pt3_add469)
     );
@@ -6950,7 +6953,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add455_a = kind_q[144] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt3_add453;
     logic [W-1:0] c_pt3_add455;
     logic [2:0] fl_c_pt3_add455;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add455 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add455 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add455_a), .b(dl_c_pt3_mul454), .sub(1'b0),
         .out_valid(op_valid_nc[352]), .y(c_pt3_add455), .flags(fl_c_pt3_add455)
     );
@@ -6966,7 +6969,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add460_a = kind_q[144] ? dl_f_t0_wA_z[1*W +: W] : dl_c_pt3_add458;
     logic [W-1:0] c_pt3_add460;
     logic [2:0] fl_c_pt3_add460;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add460 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add460 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add460_a), .b(dl_c_pt3_mul459), .sub(1'b0),
         .out_valid(op_valid_nc[357]), .y(c_pt3_add460), .flags(fl_c_pt3_add460)
     );
@@ -6984,7 +6987,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add466_b = kind_q[144] ? dl_c_pt3_mul462[1*W +: W] : dl_c_pt3_mul465[0*W +: W];
     logic [W-1:0] c_pt3_add466;
     logic [2:0] fl_c_pt3_add466;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add466 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add466 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add466_a), .b(c_pt3_add466_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[363]), .y(c_pt3_add466), .flags(fl_c_pt3_add466)
     );
@@ -7002,7 +7005,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add471_b = kind_q[144] ? dl_c_pt3_mul463[1*W +: W] : dl_c_pt3_mul470[0*W +: W];
     logic [W-1:0] c_pt3_add471;
     logic [2:0] fl_c_pt3_add471;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add471 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add471 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add471_a), .b(c_pt3_add471_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[368]), .y(c_pt3_add471), .flags(fl_c_pt3_add471)
     );
@@ -7044,7 +7047,7 @@ module pgs_shared_pipe_full_mu #(
     // f_spin_add311: fp_add @147/147/147 -> @151/151/151 (friction: spin_add311 = spin_mul309 + spin_mul310)
     logic [W-1:0] f_spin_add311;
     logic [2:0] fl_f_spin_add311;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add311 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add311 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[147]), .a(dl_f_spin_mul309), .b(dl_f_spin_mul310), .sub(1'b0),
         .out_valid(op_valid_nc[433]), .y(f_spin_add311), .flags(fl_f_spin_add311)
     );
@@ -7090,7 +7093,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_sub461_b = kind_q[148] ? dl_c_pt3_mul465[1*W +: W] : dl_c_pt3_add460;
     logic [W-1:0] c_pt3_sub461;
     logic [2:0] fl_c_pt3_sub461;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub461 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub461 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub461_a), .b(c_pt3_sub461_b), .sub(1'b1),
         .out_valid(op_valid_nc[358]), .y(c_pt3_sub461), .flags(fl_c_pt3_sub461)
     );
@@ -7108,7 +7111,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_sub472_b = kind_q[148] ? dl_c_pt3_mul467[1*W +: W] : dl_c_pt3_add471;
     logic [W-1:0] c_pt3_sub472;
     logic [2:0] fl_c_pt3_sub472;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub472 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub472 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub472_a), .b(c_pt3_sub472_b), .sub(1'b1),
         .out_valid(op_valid_nc[369]), .y(c_pt3_sub472), .flags(fl_c_pt3_sub472)
     );
@@ -7140,7 +7143,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_vrel_b = kind_q[152] ? dl_c_pt3_mul468[1*W +: W] : dl_c_pt3_sub472;
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(c_pt3_vrel_a), .b(c_pt3_vrel_b), .sub(kind_q[152]),
         .out_valid(op_valid_nc[370]), .y(c_pt3_vrel), .flags(fl_c_pt3_vrel)
     );
@@ -7179,7 +7182,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add474_b = kind_q[156] ? dl_c_pt3_mul470[1*W +: W] : dl_in_b3;
     logic [W-1:0] c_pt3_add474;
     logic [2:0] fl_c_pt3_add474;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add474 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add474 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(c_pt3_add474_a), .b(c_pt3_add474_b), .sub(kind_q[156]),
         .out_valid(op_valid_nc[371]), .y(c_pt3_add474), .flags(fl_c_pt3_add474)
     );
@@ -7207,7 +7210,7 @@ module pgs_shared_pipe_full_mu #(
     // f_spin_add323: fp_add @159/159/159 -> @163/163/163 (friction: spin_add323 = spin_mul321 + spin_mul322)
     logic [W-1:0] f_spin_add323;
     logic [2:0] fl_f_spin_add323;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add323 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add323 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[159]), .a(dl_f_spin_mul321), .b(dl_f_spin_mul322), .sub(1'b0),
         .out_valid(op_valid_nc[437]), .y(f_spin_add323), .flags(fl_f_spin_add323)
     );
@@ -7262,7 +7265,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add476_a = kind_q[163] ? dl_f_spin_add311 : dl_in_lam3[0*W +: W];
     logic [W-1:0] c_pt3_add476;
     logic [2:0] fl_c_pt3_add476;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add476 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add476 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(c_pt3_add476_a), .b(dl_c_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[373]), .y(c_pt3_add476), .flags(fl_c_pt3_add476)
     );
@@ -7276,7 +7279,7 @@ module pgs_shared_pipe_full_mu #(
     // f_spin_add325: fp_add @163/163/163 -> @167/167/167 (friction: spin_add325 = spin_add323 + spin_mul324)
     logic [W-1:0] f_spin_add325;
     logic [2:0] fl_f_spin_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[163]), .a(dl_f_spin_add323), .b(dl_f_spin_mul324), .sub(1'b0),
         .out_valid(op_valid_nc[439]), .y(f_spin_add325), .flags(fl_f_spin_add325)
     );
@@ -7335,7 +7338,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[168]), .a(dl_c_pt3_lam_new_max), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[375]), .y(c_pt3_delta), .flags(fl_c_pt3_delta)
     );
@@ -7543,7 +7546,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add513_a = kind_q[175] ? dl_f_t1_wA_x[1*W +: W] : dl_c_pt2_vA_x[1*W +: W];
     logic [W-1:0] c_pt3_add513;
     logic [2:0] fl_c_pt3_add513;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add513 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add513 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add513_a), .b(dl_c_pt3_mul510), .sub(kind_q[175]),
         .out_valid(op_valid_nc[409]), .y(c_pt3_add513), .flags(fl_c_pt3_add513)
     );
@@ -7559,7 +7562,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add514_a = kind_q[175] ? dl_f_t1_wA_y[1*W +: W] : dl_c_pt2_vA_y[1*W +: W];
     logic [W-1:0] c_pt3_add514;
     logic [2:0] fl_c_pt3_add514;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add514 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add514 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add514_a), .b(dl_c_pt3_mul511), .sub(kind_q[175]),
         .out_valid(op_valid_nc[410]), .y(c_pt3_add514), .flags(fl_c_pt3_add514)
     );
@@ -7575,7 +7578,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add515_a = kind_q[175] ? dl_f_t1_wA_z[1*W +: W] : dl_c_pt2_vA_z[1*W +: W];
     logic [W-1:0] c_pt3_add515;
     logic [2:0] fl_c_pt3_add515;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add515 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add515 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add515_a), .b(dl_c_pt3_mul512), .sub(kind_q[175]),
         .out_valid(op_valid_nc[411]), .y(c_pt3_add515), .flags(fl_c_pt3_add515)
     );
@@ -7591,7 +7594,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add522_a = kind_q[175] ? dl_f_t1_wB_x[1*W +: W] : dl_c_pt2_wA_x[1*W +: W];
     logic [W-1:0] c_pt3_add522;
     logic [2:0] fl_c_pt3_add522;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add522 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add522 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add522_a), .b(dl_c_pt3_mul519), .sub(kind_q[175]),
         .out_valid(op_valid_nc[415]), .y(c_pt3_add522), .flags(fl_c_pt3_add522)
     );
@@ -7607,7 +7610,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add523_a = kind_q[175] ? dl_f_t1_wB_y[1*W +: W] : dl_c_pt2_wA_y[1*W +: W];
     logic [W-1:0] c_pt3_add523;
     logic [2:0] fl_c_pt3_add523;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add523 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add523 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add523_a), .b(dl_c_pt3_mul520), .sub(kind_q[175]),
         .out_valid(op_valid_nc[416]), .y(c_pt3_add523), .flags(fl_c_pt3_add523)
     );
@@ -7623,7 +7626,7 @@ module pgs_shared_pipe_full_mu #(
     assign c_pt3_add524_a = kind_q[175] ? dl_f_t1_wB_z[1*W +: W] : dl_c_pt2_wA_z[1*W +: W];
     logic [W-1:0] c_pt3_add524;
     logic [2:0] fl_c_pt3_add524;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add524 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add524 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add524_a), .b(dl_c_pt3_mul521), .sub(kind_q[175]),
         .out_valid(op_valid_nc[417]), .y(c_pt3_add524), .flags(fl_c_pt3_add524)
     );
@@ -7637,7 +7640,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_sub531: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub531 = pt2_vB_x - pt3_mul528)
     logic [W-1:0] c_pt3_sub531;
     logic [2:0] fl_c_pt3_sub531;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub531 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub531 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_x[1*W +: W]), .b(dl_c_pt3_mul528), .sub(1'b1),
         .out_valid(op_valid_nc[421]), .y(c_pt3_sub531), .flags(fl_c_pt3_sub531)
     );
@@ -7651,7 +7654,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_sub532: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub532 = pt2_vB_y - pt3_mul529)
     logic [W-1:0] c_pt3_sub532;
     logic [2:0] fl_c_pt3_sub532;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub532 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub532 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_y[1*W +: W]), .b(dl_c_pt3_mul529), .sub(1'b1),
         .out_valid(op_valid_nc[422]), .y(c_pt3_sub532), .flags(fl_c_pt3_sub532)
     );
@@ -7665,7 +7668,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_sub533: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub533 = pt2_vB_z - pt3_mul530)
     logic [W-1:0] c_pt3_sub533;
     logic [2:0] fl_c_pt3_sub533;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub533 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub533 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_z[1*W +: W]), .b(dl_c_pt3_mul530), .sub(1'b1),
         .out_valid(op_valid_nc[423]), .y(c_pt3_sub533), .flags(fl_c_pt3_sub533)
     );
@@ -7679,7 +7682,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_sub540: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub540 = pt2_wB_x - pt3_mul537)
     logic [W-1:0] c_pt3_sub540;
     logic [2:0] fl_c_pt3_sub540;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub540 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub540 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_x[1*W +: W]), .b(dl_c_pt3_mul537), .sub(1'b1),
         .out_valid(op_valid_nc[427]), .y(c_pt3_sub540), .flags(fl_c_pt3_sub540)
     );
@@ -7693,7 +7696,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_sub541: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub541 = pt2_wB_y - pt3_mul538)
     logic [W-1:0] c_pt3_sub541;
     logic [2:0] fl_c_pt3_sub541;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub541 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub541 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_y[1*W +: W]), .b(dl_c_pt3_mul538), .sub(1'b1),
         .out_valid(op_valid_nc[428]), .y(c_pt3_sub541), .flags(fl_c_pt3_sub541)
     );
@@ -7707,7 +7710,7 @@ module pgs_shared_pipe_full_mu #(
     // c_pt3_sub542: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub542 = pt2_wB_z - pt3_mul539)
     logic [W-1:0] c_pt3_sub542;
     logic [2:0] fl_c_pt3_sub542;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub542 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub542 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_z[1*W +: W]), .b(dl_c_pt3_mul539), .sub(1'b1),
         .out_valid(op_valid_nc[429]), .y(c_pt3_sub542), .flags(fl_c_pt3_sub542)
     );

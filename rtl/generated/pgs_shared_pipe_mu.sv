@@ -37,6 +37,9 @@ module pgs_shared_pipe_mu #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 55,
     localparam int N_OUT    = 16,
@@ -601,7 +604,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_rA_x_b = kind_q[0] ? dl_in_lam1[2*W +: W] : dl_in_xA_x;
     logic [W-1:0] c_pt0_rA_x;
     logic [2:0] fl_c_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_x_a), .b(c_pt0_rA_x_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[6]), .y(c_pt0_rA_x), .flags(fl_c_pt0_rA_x)
     );
@@ -619,7 +622,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_rA_y_b = kind_q[0] ? dl_in_lam3[2*W +: W] : dl_in_xA_y;
     logic [W-1:0] c_pt0_rA_y;
     logic [2:0] fl_c_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_y_a), .b(c_pt0_rA_y_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[7]), .y(c_pt0_rA_y), .flags(fl_c_pt0_rA_y)
     );
@@ -633,7 +636,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rA_z = p0_z - xA_z; friction: rA_z = c_z - xA_z)
     logic [W-1:0] c_pt0_rA_z;
     logic [2:0] fl_c_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(c_pt0_rA_z), .flags(fl_c_pt0_rA_z)
     );
@@ -649,7 +652,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_rB_x_b = kind_q[0] ? dl_in_xA_x : dl_in_xB_x;
     logic [W-1:0] c_pt0_rB_x;
     logic [2:0] fl_c_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x__c_x), .b(c_pt0_rB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(c_pt0_rB_x), .flags(fl_c_pt0_rB_x)
     );
@@ -665,7 +668,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_rB_y_b = kind_q[0] ? dl_in_xA_y : dl_in_xB_y;
     logic [W-1:0] c_pt0_rB_y;
     logic [2:0] fl_c_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y__c_y), .b(c_pt0_rB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(c_pt0_rB_y), .flags(fl_c_pt0_rB_y)
     );
@@ -679,7 +682,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rB_z = p0_z - xB_z; friction: rB_z = c_z - xB_z)
     logic [W-1:0] c_pt0_rB_z;
     logic [2:0] fl_c_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(c_pt0_rB_z), .flags(fl_c_pt0_rB_z)
     );
@@ -789,7 +792,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_x = p1_x - xA_x)
     logic [W-1:0] c_pt1_rA_x;
     logic [2:0] fl_c_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_x__t0_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(c_pt1_rA_x), .flags(fl_c_pt1_rA_x)
     );
@@ -803,7 +806,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_y = p1_y - xA_y)
     logic [W-1:0] c_pt1_rA_y;
     logic [2:0] fl_c_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_y__t0_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(c_pt1_rA_y), .flags(fl_c_pt1_rA_y)
     );
@@ -817,7 +820,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_z = p1_z - xA_z)
     logic [W-1:0] c_pt1_rA_z;
     logic [2:0] fl_c_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(c_pt1_rA_z), .flags(fl_c_pt1_rA_z)
     );
@@ -833,7 +836,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_rB_x_a = kind_q[0] ? dl_in_p0_x__c_x : dl_in_p1_x__t0_x[0*W +: W];
     logic [W-1:0] c_pt1_rB_x;
     logic [2:0] fl_c_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_x_a), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(c_pt1_rB_x), .flags(fl_c_pt1_rB_x)
     );
@@ -849,7 +852,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_rB_y_a = kind_q[0] ? dl_in_p0_y__c_y : dl_in_p1_y__t0_y[0*W +: W];
     logic [W-1:0] c_pt1_rB_y;
     logic [2:0] fl_c_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_y_a), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(c_pt1_rB_y), .flags(fl_c_pt1_rB_y)
     );
@@ -863,7 +866,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rB_z = p1_z - xB_z)
     logic [W-1:0] c_pt1_rB_z;
     logic [2:0] fl_c_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(c_pt1_rB_z), .flags(fl_c_pt1_rB_z)
     );
@@ -877,7 +880,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_x = p2_x - xA_x)
     logic [W-1:0] c_pt2_rA_x;
     logic [2:0] fl_c_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(c_pt2_rA_x), .flags(fl_c_pt2_rA_x)
     );
@@ -891,7 +894,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_y = p2_y - xA_y)
     logic [W-1:0] c_pt2_rA_y;
     logic [2:0] fl_c_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(c_pt2_rA_y), .flags(fl_c_pt2_rA_y)
     );
@@ -905,7 +908,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_z = p2_z - xA_z)
     logic [W-1:0] c_pt2_rA_z;
     logic [2:0] fl_c_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(c_pt2_rA_z), .flags(fl_c_pt2_rA_z)
     );
@@ -919,7 +922,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_x = p2_x - xB_x)
     logic [W-1:0] c_pt2_rB_x;
     logic [2:0] fl_c_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[182]), .y(c_pt2_rB_x), .flags(fl_c_pt2_rB_x)
     );
@@ -933,7 +936,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_y = p2_y - xB_y)
     logic [W-1:0] c_pt2_rB_y;
     logic [2:0] fl_c_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(c_pt2_rB_y), .flags(fl_c_pt2_rB_y)
     );
@@ -947,7 +950,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_z = p2_z - xB_z)
     logic [W-1:0] c_pt2_rB_z;
     logic [2:0] fl_c_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(c_pt2_rB_z), .flags(fl_c_pt2_rB_z)
     );
@@ -961,7 +964,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_x = p3_x - xA_x)
     logic [W-1:0] c_pt3_rA_x;
     logic [2:0] fl_c_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(c_pt3_rA_x), .flags(fl_c_pt3_rA_x)
     );
@@ -975,7 +978,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_y = p3_y - xA_y)
     logic [W-1:0] c_pt3_rA_y;
     logic [2:0] fl_c_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(c_pt3_rA_y), .flags(fl_c_pt3_rA_y)
     );
@@ -989,7 +992,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_z = p3_z - xA_z)
     logic [W-1:0] c_pt3_rA_z;
     logic [2:0] fl_c_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(c_pt3_rA_z), .flags(fl_c_pt3_rA_z)
     );
@@ -1003,7 +1006,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_x = p3_x - xB_x)
     logic [W-1:0] c_pt3_rB_x;
     logic [2:0] fl_c_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[264]), .y(c_pt3_rB_x), .flags(fl_c_pt3_rB_x)
     );
@@ -1017,7 +1020,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_y = p3_y - xB_y)
     logic [W-1:0] c_pt3_rB_y;
     logic [2:0] fl_c_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[265]), .y(c_pt3_rB_y), .flags(fl_c_pt3_rB_y)
     );
@@ -1031,7 +1034,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_z = p3_z - xB_z)
     logic [W-1:0] c_pt3_rB_z;
     logic [2:0] fl_c_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(c_pt3_rB_z), .flags(fl_c_pt3_rB_z)
     );
@@ -1045,7 +1048,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add87: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add87 = pt0_mul85 + pt0_mul86; friction: t0_add80 = t0_mul78 + t0_mul79)
     logic [W-1:0] c_pt0_add87;
     logic [2:0] fl_c_pt0_add87;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add87 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add87 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul85), .b(dl_c_pt0_mul86), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(c_pt0_add87), .flags(fl_c_pt0_add87)
     );
@@ -1059,7 +1062,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add92: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add92 = pt0_mul90 + pt0_mul91; friction: t0_add85 = t0_mul83 + t0_mul84)
     logic [W-1:0] c_pt0_add92;
     logic [2:0] fl_c_pt0_add92;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add92 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add92 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul90), .b(dl_c_pt0_mul91), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(c_pt0_add92), .flags(fl_c_pt0_add92)
     );
@@ -1845,7 +1848,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_cA_x_b = kind_q[7] ? dl_c_pt0_rA_y[1*W +: W] : dl_c_pt0_mul65;
     logic [W-1:0] c_pt0_cA_x;
     logic [2:0] fl_c_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_x_a), .b(c_pt0_cA_x_b), .sub(!kind_q[7]),
         .out_valid(op_valid_nc[11]), .y(c_pt0_cA_x), .flags(fl_c_pt0_cA_x)
     );
@@ -1861,7 +1864,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_cA_y_b = kind_q[7] ? dl_c_pt0_mul80 : dl_c_pt0_mul68;
     logic [W-1:0] c_pt0_cA_y;
     logic [2:0] fl_c_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul67), .b(c_pt0_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(c_pt0_cA_y), .flags(fl_c_pt0_cA_y)
     );
@@ -1879,7 +1882,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_cA_z_b = kind_q[7] ? dl_c_pt0_mul68 : dl_c_pt0_mul71;
     logic [W-1:0] c_pt0_cA_z;
     logic [2:0] fl_c_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_z_a), .b(c_pt0_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(c_pt0_cA_z), .flags(fl_c_pt0_cA_z)
     );
@@ -1895,7 +1898,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_cB_x_b = kind_q[7] ? dl_c_pt0_mul65 : dl_c_pt0_mul77;
     logic [W-1:0] c_pt0_cB_x;
     logic [2:0] fl_c_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul76), .b(c_pt0_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(c_pt0_cB_x), .flags(fl_c_pt0_cB_x)
     );
@@ -1911,7 +1914,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_cB_y_b = kind_q[7] ? dl_c_pt1_mul176 : dl_c_pt0_mul80;
     logic [W-1:0] c_pt0_cB_y;
     logic [2:0] fl_c_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul79), .b(c_pt0_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(c_pt0_cB_y), .flags(fl_c_pt0_cB_y)
     );
@@ -1925,7 +1928,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_z = pt0_mul82 - pt0_mul83; friction: t0_cA_z = t0_mul66 - t0_mul67)
     logic [W-1:0] c_pt0_cB_z;
     logic [2:0] fl_c_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul82), .b(dl_c_pt0_mul83), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(c_pt0_cB_z), .flags(fl_c_pt0_cB_z)
     );
@@ -1939,7 +1942,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add89: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add89 = pt0_add87 + pt0_mul88; friction: t0_add82 = t0_add80 + t0_mul81)
     logic [W-1:0] c_pt0_add89;
     logic [2:0] fl_c_pt0_add89;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add89 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add89 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add87), .b(dl_c_pt0_mul88), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(c_pt0_add89), .flags(fl_c_pt0_add89)
     );
@@ -1953,7 +1956,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add94: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add94 = pt0_add92 + pt0_mul93; friction: t0_add87 = t0_add85 + t0_mul86)
     logic [W-1:0] c_pt0_add94;
     logic [2:0] fl_c_pt0_add94;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add94 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add94 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add92), .b(dl_c_pt0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(c_pt0_add94), .flags(fl_c_pt0_add94)
     );
@@ -1971,7 +1974,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_cA_x_b = kind_q[7] ? dl_c_pt0_mul71 : dl_c_pt1_mul161;
     logic [W-1:0] c_pt1_cA_x;
     logic [2:0] fl_c_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_x_a), .b(c_pt1_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(c_pt1_cA_x), .flags(fl_c_pt1_cA_x)
     );
@@ -1989,7 +1992,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_cA_y_b = kind_q[7] ? dl_c_pt1_mul161 : dl_c_pt1_mul164;
     logic [W-1:0] c_pt1_cA_y;
     logic [2:0] fl_c_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_y_a), .b(c_pt1_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[96]), .y(c_pt1_cA_y), .flags(fl_c_pt1_cA_y)
     );
@@ -2007,7 +2010,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_cA_z_b = kind_q[7] ? dl_c_pt1_mul164 : dl_c_pt1_mul167;
     logic [W-1:0] c_pt1_cA_z;
     logic [2:0] fl_c_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_z_a), .b(c_pt1_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[99]), .y(c_pt1_cA_z), .flags(fl_c_pt1_cA_z)
     );
@@ -2023,7 +2026,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_cB_x_b = kind_q[7] ? dl_c_pt0_mul77 : dl_c_pt1_mul173;
     logic [W-1:0] c_pt1_cB_x;
     logic [2:0] fl_c_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul172), .b(c_pt1_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(c_pt1_cB_x), .flags(fl_c_pt1_cB_x)
     );
@@ -2041,7 +2044,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_cB_y_b = kind_q[7] ? dl_c_pt1_mul167 : dl_c_pt1_mul176;
     logic [W-1:0] c_pt1_cB_y;
     logic [2:0] fl_c_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cB_y_a), .b(c_pt1_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[108]), .y(c_pt1_cB_y), .flags(fl_c_pt1_cB_y)
     );
@@ -2055,7 +2058,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_z = pt1_mul178 - pt1_mul179; friction: t0_cB_z = t0_mul75 - t0_mul76)
     logic [W-1:0] c_pt1_cB_z;
     logic [2:0] fl_c_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul178), .b(dl_c_pt1_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(c_pt1_cB_z), .flags(fl_c_pt1_cB_z)
     );
@@ -2073,7 +2076,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt2_cA_x_b = kind_q[7] ? dl_c_pt1_mul175 : dl_c_pt2_mul257[0*W +: W];
     logic [W-1:0] c_pt2_cA_x;
     logic [2:0] fl_c_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt2_cA_x_a), .b(c_pt2_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[175]), .y(c_pt2_cA_x), .flags(fl_c_pt2_cA_x)
     );
@@ -2087,7 +2090,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_y = pt2_mul259 - pt2_mul260)
     logic [W-1:0] c_pt2_cA_y;
     logic [2:0] fl_c_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul259[0*W +: W]), .b(dl_c_pt2_mul260[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[178]), .y(c_pt2_cA_y), .flags(fl_c_pt2_cA_y)
     );
@@ -2101,7 +2104,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_z = pt2_mul262 - pt2_mul263)
     logic [W-1:0] c_pt2_cA_z;
     logic [2:0] fl_c_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul262[0*W +: W]), .b(dl_c_pt2_mul263[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[181]), .y(c_pt2_cA_z), .flags(fl_c_pt2_cA_z)
     );
@@ -2115,7 +2118,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_x = pt2_mul268 - pt2_mul269)
     logic [W-1:0] c_pt2_cB_x;
     logic [2:0] fl_c_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul268), .b(dl_c_pt2_mul269), .sub(1'b1),
         .out_valid(op_valid_nc[187]), .y(c_pt2_cB_x), .flags(fl_c_pt2_cB_x)
     );
@@ -2129,7 +2132,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_y = pt2_mul271 - pt2_mul272)
     logic [W-1:0] c_pt2_cB_y;
     logic [2:0] fl_c_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul271), .b(dl_c_pt2_mul272), .sub(1'b1),
         .out_valid(op_valid_nc[190]), .y(c_pt2_cB_y), .flags(fl_c_pt2_cB_y)
     );
@@ -2143,7 +2146,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_z = pt2_mul274 - pt2_mul275)
     logic [W-1:0] c_pt2_cB_z;
     logic [2:0] fl_c_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul274), .b(dl_c_pt2_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(c_pt2_cB_z), .flags(fl_c_pt2_cB_z)
     );
@@ -2157,7 +2160,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_x = pt3_mul352 - pt3_mul353)
     logic [W-1:0] c_pt3_cA_x;
     logic [2:0] fl_c_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul352), .b(dl_c_pt3_mul353), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(c_pt3_cA_x), .flags(fl_c_pt3_cA_x)
     );
@@ -2171,7 +2174,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_y = pt3_mul355 - pt3_mul356)
     logic [W-1:0] c_pt3_cA_y;
     logic [2:0] fl_c_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul355), .b(dl_c_pt3_mul356), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(c_pt3_cA_y), .flags(fl_c_pt3_cA_y)
     );
@@ -2185,7 +2188,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_z = pt3_mul358 - pt3_mul359)
     logic [W-1:0] c_pt3_cA_z;
     logic [2:0] fl_c_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul358), .b(dl_c_pt3_mul359), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(c_pt3_cA_z), .flags(fl_c_pt3_cA_z)
     );
@@ -2199,7 +2202,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_x = pt3_mul364 - pt3_mul365)
     logic [W-1:0] c_pt3_cB_x;
     logic [2:0] fl_c_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul364), .b(dl_c_pt3_mul365), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(c_pt3_cB_x), .flags(fl_c_pt3_cB_x)
     );
@@ -2213,7 +2216,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_y = pt3_mul367 - pt3_mul368)
     logic [W-1:0] c_pt3_cB_y;
     logic [2:0] fl_c_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul367), .b(dl_c_pt3_mul368), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(c_pt3_cB_y), .flags(fl_c_pt3_cB_y)
     );
@@ -2227,7 +2230,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_z = pt3_mul370 - pt3_mul371)
     logic [W-1:0] c_pt3_cB_z;
     logic [2:0] fl_c_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul370), .b(dl_c_pt3_mul371), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(c_pt3_cB_z), .flags(fl_c_pt3_cB_z)
     );
@@ -2241,7 +2244,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub95: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub95 = pt0_add89 - pt0_add94; friction: t0_sub88 = t0_add82 - t0_add87)
     logic [W-1:0] c_pt0_sub95;
     logic [2:0] fl_c_pt0_sub95;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub95 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub95 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_c_pt0_add89), .b(dl_c_pt0_add94), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(c_pt0_sub95), .flags(fl_c_pt0_sub95)
     );
@@ -2710,7 +2713,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_add98_a = kind_q[14] ? dl_c_pt0_mul101 : dl_c_pt0_mul96[0*W +: W];
     logic [W-1:0] c_pt0_add98;
     logic [2:0] fl_c_pt0_add98;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add98 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add98 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add98_a), .b(dl_c_pt0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(c_pt0_add98), .flags(fl_c_pt0_add98)
     );
@@ -2726,7 +2729,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_add103_a = kind_q[14] ? dl_c_pt1_angB_x[1*W +: W] : dl_c_pt0_mul101;
     logic [W-1:0] c_pt0_add103;
     logic [2:0] fl_c_pt0_add103;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add103 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add103 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add103_a), .b(dl_c_pt0_mul102), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(c_pt0_add103), .flags(fl_c_pt0_add103)
     );
@@ -2740,7 +2743,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add100: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add100 = pt0_add98 + pt0_mul99; friction: t0_add93 = t0_add91 + t0_mul92)
     logic [W-1:0] c_pt0_add100;
     logic [2:0] fl_c_pt0_add100;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add100 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add100 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add98), .b(dl_c_pt0_mul99), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(c_pt0_add100), .flags(fl_c_pt0_add100)
     );
@@ -2754,7 +2757,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add105: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add105 = pt0_add103 + pt0_mul104; friction: t0_add98 = t0_add96 + t0_mul97)
     logic [W-1:0] c_pt0_add105;
     logic [2:0] fl_c_pt0_add105;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add105 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add105 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add103), .b(dl_c_pt0_mul104), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(c_pt0_add105), .flags(fl_c_pt0_add105)
     );
@@ -2768,7 +2771,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub106: fp_add @22/22/22 -> @26/26/26 (contact: pt0_sub106 = pt0_add100 - pt0_add105; friction: t0_sub99 = t0_add93 - t0_add98)
     logic [W-1:0] c_pt0_sub106;
     logic [2:0] fl_c_pt0_sub106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub106 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_c_pt0_add100), .b(dl_c_pt0_add105), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(c_pt0_sub106), .flags(fl_c_pt0_sub106)
     );
@@ -2782,7 +2785,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_vrel: fp_add @26/26/26 -> @30/30/30 (contact: pt0_vrel = pt0_sub95 + pt0_sub106; friction: t0_u = t0_sub88 + t0_sub99)
     logic [W-1:0] c_pt0_vrel;
     logic [2:0] fl_c_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_c_pt0_sub95), .b(dl_c_pt0_sub106), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(c_pt0_vrel), .flags(fl_c_pt0_vrel)
     );
@@ -2803,7 +2806,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add108: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add108 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add108;
     logic [2:0] fl_c_pt0_add108;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add108 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add108 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[30]), .a(dl_c_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(c_pt0_add108), .flags(fl_c_pt0_add108)
     );
@@ -2837,7 +2840,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt0_add110_a = kind_q[37] ? dl_in_lamT0[0*W +: W] : dl_in_lam0[0*W +: W];
     logic [W-1:0] c_pt0_add110;
     logic [2:0] fl_c_pt0_add110;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add110 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add110 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(c_pt0_add110_a), .b(dl_c_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(c_pt0_add110), .flags(fl_c_pt0_add110)
     );
@@ -2870,7 +2873,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[42]), .a(dl_c_pt0_lam_new_max[0*W +: W]), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(c_pt0_delta), .flags(fl_c_pt0_delta)
     );
@@ -3052,7 +3055,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add123: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add123 = vA_x + pt0_mul120)
     logic [W-1:0] c_pt0_add123;
     logic [2:0] fl_c_pt0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_c_pt0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(c_pt0_add123), .flags(fl_c_pt0_add123)
     );
@@ -3066,7 +3069,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add124: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add124 = vA_y + pt0_mul121)
     logic [W-1:0] c_pt0_add124;
     logic [2:0] fl_c_pt0_add124;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add124 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add124 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_c_pt0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(c_pt0_add124), .flags(fl_c_pt0_add124)
     );
@@ -3080,7 +3083,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add125: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add125 = vA_z + pt0_mul122)
     logic [W-1:0] c_pt0_add125;
     logic [2:0] fl_c_pt0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_c_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(c_pt0_add125), .flags(fl_c_pt0_add125)
     );
@@ -3094,7 +3097,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add132: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add132 = wA_x + pt0_mul129)
     logic [W-1:0] c_pt0_add132;
     logic [2:0] fl_c_pt0_add132;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add132 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add132 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_c_pt0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(c_pt0_add132), .flags(fl_c_pt0_add132)
     );
@@ -3108,7 +3111,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add133: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add133 = wA_y + pt0_mul130)
     logic [W-1:0] c_pt0_add133;
     logic [2:0] fl_c_pt0_add133;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add133 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add133 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_c_pt0_mul130), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(c_pt0_add133), .flags(fl_c_pt0_add133)
     );
@@ -3122,7 +3125,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_add134: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add134 = wA_z + pt0_mul131)
     logic [W-1:0] c_pt0_add134;
     logic [2:0] fl_c_pt0_add134;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add134 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add134 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_c_pt0_mul131), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(c_pt0_add134), .flags(fl_c_pt0_add134)
     );
@@ -3136,7 +3139,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub141: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub141 = vB_x - pt0_mul138)
     logic [W-1:0] c_pt0_sub141;
     logic [2:0] fl_c_pt0_sub141;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub141 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub141 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_c_pt0_mul138), .sub(1'b1),
         .out_valid(op_valid_nc[79]), .y(c_pt0_sub141), .flags(fl_c_pt0_sub141)
     );
@@ -3150,7 +3153,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub142: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub142 = vB_y - pt0_mul139)
     logic [W-1:0] c_pt0_sub142;
     logic [2:0] fl_c_pt0_sub142;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub142 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub142 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_c_pt0_mul139), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(c_pt0_sub142), .flags(fl_c_pt0_sub142)
     );
@@ -3164,7 +3167,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub143: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub143 = vB_z - pt0_mul140)
     logic [W-1:0] c_pt0_sub143;
     logic [2:0] fl_c_pt0_sub143;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub143 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub143 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_c_pt0_mul140), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(c_pt0_sub143), .flags(fl_c_pt0_sub143)
     );
@@ -3178,7 +3181,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub150: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub150 = wB_x - pt0_mul147)
     logic [W-1:0] c_pt0_sub150;
     logic [2:0] fl_c_pt0_sub150;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub150 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub150 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_c_pt0_mul147), .sub(1'b1),
         .out_valid(op_valid_nc[85]), .y(c_pt0_sub150), .flags(fl_c_pt0_sub150)
     );
@@ -3192,7 +3195,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub151: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub151 = wB_y - pt0_mul148)
     logic [W-1:0] c_pt0_sub151;
     logic [2:0] fl_c_pt0_sub151;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub151 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub151 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_c_pt0_mul148), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(c_pt0_sub151), .flags(fl_c_pt0_sub151)
     );
@@ -3206,7 +3209,7 @@ module pgs_shared_pipe_mu #(
     // c_pt0_sub152: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub152 = wB_z - pt0_mul149)
     logic [W-1:0] c_pt0_sub152;
     logic [2:0] fl_c_pt0_sub152;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub152 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub152 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_c_pt0_mul149), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(c_pt0_sub152), .flags(fl_c_pt0_sub152)
     );
@@ -3472,7 +3475,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add183: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add183 = pt1_mul181 + pt1_mul182)
     logic [W-1:0] c_pt1_add183;
     logic [2:0] fl_c_pt1_add183;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add183 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add183 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul181), .b(dl_c_pt1_mul182), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(c_pt1_add183), .flags(fl_c_pt1_add183)
     );
@@ -3486,7 +3489,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add188: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add188 = pt1_mul186 + pt1_mul187)
     logic [W-1:0] c_pt1_add188;
     logic [2:0] fl_c_pt1_add188;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add188 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add188 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul186), .b(dl_c_pt1_mul187), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(c_pt1_add188), .flags(fl_c_pt1_add188)
     );
@@ -3500,7 +3503,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add194: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add194 = pt1_mul192 + pt1_mul193)
     logic [W-1:0] c_pt1_add194;
     logic [2:0] fl_c_pt1_add194;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add194 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add194 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul192), .b(dl_c_pt1_mul193), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(c_pt1_add194), .flags(fl_c_pt1_add194)
     );
@@ -3514,7 +3517,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add199: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add199 = pt1_mul197 + pt1_mul198)
     logic [W-1:0] c_pt1_add199;
     logic [2:0] fl_c_pt1_add199;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add199 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add199 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul197), .b(dl_c_pt1_mul198), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(c_pt1_add199), .flags(fl_c_pt1_add199)
     );
@@ -3528,7 +3531,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add185: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add185 = pt1_add183 + pt1_mul184)
     logic [W-1:0] c_pt1_add185;
     logic [2:0] fl_c_pt1_add185;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add185 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add185 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add183), .b(dl_c_pt1_mul184), .sub(1'b0),
         .out_valid(op_valid_nc[116]), .y(c_pt1_add185), .flags(fl_c_pt1_add185)
     );
@@ -3542,7 +3545,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add190: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add190 = pt1_add188 + pt1_mul189)
     logic [W-1:0] c_pt1_add190;
     logic [2:0] fl_c_pt1_add190;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add190 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add190 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add188), .b(dl_c_pt1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[121]), .y(c_pt1_add190), .flags(fl_c_pt1_add190)
     );
@@ -3556,7 +3559,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add196: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add196 = pt1_add194 + pt1_mul195)
     logic [W-1:0] c_pt1_add196;
     logic [2:0] fl_c_pt1_add196;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add196 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add196 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add194), .b(dl_c_pt1_mul195), .sub(1'b0),
         .out_valid(op_valid_nc[127]), .y(c_pt1_add196), .flags(fl_c_pt1_add196)
     );
@@ -3570,7 +3573,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add201: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add201 = pt1_add199 + pt1_mul200)
     logic [W-1:0] c_pt1_add201;
     logic [2:0] fl_c_pt1_add201;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add201 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add201 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add199), .b(dl_c_pt1_mul200), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(c_pt1_add201), .flags(fl_c_pt1_add201)
     );
@@ -3584,7 +3587,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_sub191: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub191 = pt1_add185 - pt1_add190)
     logic [W-1:0] c_pt1_sub191;
     logic [2:0] fl_c_pt1_sub191;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub191 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub191 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add185), .b(dl_c_pt1_add190), .sub(1'b1),
         .out_valid(op_valid_nc[122]), .y(c_pt1_sub191), .flags(fl_c_pt1_sub191)
     );
@@ -3598,7 +3601,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_sub202: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub202 = pt1_add196 - pt1_add201)
     logic [W-1:0] c_pt1_sub202;
     logic [2:0] fl_c_pt1_sub202;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub202 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub202 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add196), .b(dl_c_pt1_add201), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(c_pt1_sub202), .flags(fl_c_pt1_sub202)
     );
@@ -3612,7 +3615,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub191 + pt1_sub202)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[68]), .a(dl_c_pt1_sub191), .b(dl_c_pt1_sub202), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(c_pt1_vrel), .flags(fl_c_pt1_vrel)
     );
@@ -3626,7 +3629,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add204: fp_add @72/72/72 -> @76/76/76 (contact: pt1_add204 = pt1_vrel + b1)
     logic [W-1:0] c_pt1_add204;
     logic [2:0] fl_c_pt1_add204;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add204 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add204 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[72]), .a(dl_c_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(c_pt1_add204), .flags(fl_c_pt1_add204)
     );
@@ -3654,7 +3657,7 @@ module pgs_shared_pipe_mu #(
     // c_pt1_add206: fp_add @79/79/79 -> @83/83/83 (contact: pt1_add206 = lam1 + pt1_delta0)
     logic [W-1:0] c_pt1_add206;
     logic [2:0] fl_c_pt1_add206;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add206 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add206 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_c_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[137]), .y(c_pt1_add206), .flags(fl_c_pt1_add206)
     );
@@ -3704,7 +3707,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_delta_b = kind_q[84] ? dl_in_lamT0[1*W +: W] : dl_in_lam1[1*W +: W];
     logic [W-1:0] c_pt1_delta;
     logic [2:0] fl_c_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(c_pt1_delta_a), .b(c_pt1_delta_b), .sub(1'b1),
         .out_valid(op_valid_nc[139]), .y(c_pt1_delta), .flags(fl_c_pt1_delta)
     );
@@ -3929,7 +3932,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_add219_a = kind_q[91] ? dl_in_vA_x[3*W +: W] : dl_c_pt0_vA_x[1*W +: W];
     logic [W-1:0] c_pt1_add219;
     logic [2:0] fl_c_pt1_add219;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add219 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add219 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add219_a), .b(dl_c_pt1_mul216), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(c_pt1_add219), .flags(fl_c_pt1_add219)
     );
@@ -3945,7 +3948,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_add220_a = kind_q[91] ? dl_in_vA_y[3*W +: W] : dl_c_pt0_vA_y[1*W +: W];
     logic [W-1:0] c_pt1_add220;
     logic [2:0] fl_c_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add220_a), .b(dl_c_pt1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[150]), .y(c_pt1_add220), .flags(fl_c_pt1_add220)
     );
@@ -3961,7 +3964,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_add221_a = kind_q[91] ? dl_in_vA_z[3*W +: W] : dl_c_pt0_vA_z[1*W +: W];
     logic [W-1:0] c_pt1_add221;
     logic [2:0] fl_c_pt1_add221;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add221 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add221 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add221_a), .b(dl_c_pt1_mul218), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(c_pt1_add221), .flags(fl_c_pt1_add221)
     );
@@ -3977,7 +3980,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_add228_a = kind_q[91] ? dl_in_wA_x[3*W +: W] : dl_c_pt0_wA_x[1*W +: W];
     logic [W-1:0] c_pt1_add228;
     logic [2:0] fl_c_pt1_add228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add228 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add228_a), .b(dl_c_pt1_mul225), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(c_pt1_add228), .flags(fl_c_pt1_add228)
     );
@@ -3993,7 +3996,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_add229_a = kind_q[91] ? dl_in_wA_y[3*W +: W] : dl_c_pt0_wA_y[1*W +: W];
     logic [W-1:0] c_pt1_add229;
     logic [2:0] fl_c_pt1_add229;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add229 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add229 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add229_a), .b(dl_c_pt1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(c_pt1_add229), .flags(fl_c_pt1_add229)
     );
@@ -4009,7 +4012,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_add230_a = kind_q[91] ? dl_in_wA_z[3*W +: W] : dl_c_pt0_wA_z[1*W +: W];
     logic [W-1:0] c_pt1_add230;
     logic [2:0] fl_c_pt1_add230;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add230 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add230 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add230_a), .b(dl_c_pt1_mul227), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(c_pt1_add230), .flags(fl_c_pt1_add230)
     );
@@ -4025,7 +4028,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_sub237_a = kind_q[91] ? dl_in_vB_x[3*W +: W] : dl_c_pt0_vB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub237;
     logic [2:0] fl_c_pt1_sub237;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub237 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub237 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub237_a), .b(dl_c_pt1_mul234), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(c_pt1_sub237), .flags(fl_c_pt1_sub237)
     );
@@ -4041,7 +4044,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_sub238_a = kind_q[91] ? dl_in_vB_y[3*W +: W] : dl_c_pt0_vB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub238;
     logic [2:0] fl_c_pt1_sub238;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub238 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub238 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub238_a), .b(dl_c_pt1_mul235), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(c_pt1_sub238), .flags(fl_c_pt1_sub238)
     );
@@ -4057,7 +4060,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_sub239_a = kind_q[91] ? dl_in_vB_z[3*W +: W] : dl_c_pt0_vB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub239;
     logic [2:0] fl_c_pt1_sub239;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub239 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub239 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub239_a), .b(dl_c_pt1_mul236), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(c_pt1_sub239), .flags(fl_c_pt1_sub239)
     );
@@ -4073,7 +4076,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_sub246_a = kind_q[91] ? dl_in_wB_x[3*W +: W] : dl_c_pt0_wB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub246;
     logic [2:0] fl_c_pt1_sub246;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub246 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub246 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub246_a), .b(dl_c_pt1_mul243), .sub(1'b1),
         .out_valid(op_valid_nc[167]), .y(c_pt1_sub246), .flags(fl_c_pt1_sub246)
     );
@@ -4089,7 +4092,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_sub247_a = kind_q[91] ? dl_in_wB_y[3*W +: W] : dl_c_pt0_wB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub247;
     logic [2:0] fl_c_pt1_sub247;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub247 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub247 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub247_a), .b(dl_c_pt1_mul244), .sub(1'b1),
         .out_valid(op_valid_nc[168]), .y(c_pt1_sub247), .flags(fl_c_pt1_sub247)
     );
@@ -4105,7 +4108,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt1_sub248_a = kind_q[91] ? dl_in_wB_z[3*W +: W] : dl_c_pt0_wB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub248;
     logic [2:0] fl_c_pt1_sub248;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub248 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub248 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub248_a), .b(dl_c_pt1_mul245), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(c_pt1_sub248), .flags(fl_c_pt1_sub248)
     );
@@ -4503,7 +4506,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add279: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add279 = pt2_mul277 + pt2_mul278; friction: t1_add177 = t1_mul175 + t1_mul176)
     logic [W-1:0] c_pt2_add279;
     logic [2:0] fl_c_pt2_add279;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add279 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add279 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul277), .b(dl_c_pt2_mul278), .sub(1'b0),
         .out_valid(op_valid_nc[196]), .y(c_pt2_add279), .flags(fl_c_pt2_add279)
     );
@@ -4517,7 +4520,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add284: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add284 = pt2_mul282 + pt2_mul283; friction: t1_add182 = t1_mul180 + t1_mul181)
     logic [W-1:0] c_pt2_add284;
     logic [2:0] fl_c_pt2_add284;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add284 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add284 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul282), .b(dl_c_pt2_mul283), .sub(1'b0),
         .out_valid(op_valid_nc[201]), .y(c_pt2_add284), .flags(fl_c_pt2_add284)
     );
@@ -4531,7 +4534,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add290: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add290 = pt2_mul288 + pt2_mul289; friction: t1_add188 = t1_mul186 + t1_mul187)
     logic [W-1:0] c_pt2_add290;
     logic [2:0] fl_c_pt2_add290;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add290 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add290 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul288), .b(dl_c_pt2_mul289), .sub(1'b0),
         .out_valid(op_valid_nc[207]), .y(c_pt2_add290), .flags(fl_c_pt2_add290)
     );
@@ -4545,7 +4548,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add295: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add295 = pt2_mul293 + pt2_mul294; friction: t1_add193 = t1_mul191 + t1_mul192)
     logic [W-1:0] c_pt2_add295;
     logic [2:0] fl_c_pt2_add295;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add295 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add295 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul293), .b(dl_c_pt2_mul294), .sub(1'b0),
         .out_valid(op_valid_nc[212]), .y(c_pt2_add295), .flags(fl_c_pt2_add295)
     );
@@ -4559,7 +4562,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add281: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add281 = pt2_add279 + pt2_mul280; friction: t1_add179 = t1_add177 + t1_mul178)
     logic [W-1:0] c_pt2_add281;
     logic [2:0] fl_c_pt2_add281;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add281 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add281 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add279), .b(dl_c_pt2_mul280), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(c_pt2_add281), .flags(fl_c_pt2_add281)
     );
@@ -4573,7 +4576,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add286: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add286 = pt2_add284 + pt2_mul285; friction: t1_add184 = t1_add182 + t1_mul183)
     logic [W-1:0] c_pt2_add286;
     logic [2:0] fl_c_pt2_add286;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add286 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add286 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add284), .b(dl_c_pt2_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(c_pt2_add286), .flags(fl_c_pt2_add286)
     );
@@ -4587,7 +4590,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add292: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add292 = pt2_add290 + pt2_mul291; friction: t1_add190 = t1_add188 + t1_mul189)
     logic [W-1:0] c_pt2_add292;
     logic [2:0] fl_c_pt2_add292;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add292 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add292 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add290), .b(dl_c_pt2_mul291), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(c_pt2_add292), .flags(fl_c_pt2_add292)
     );
@@ -4601,7 +4604,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add297: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add297 = pt2_add295 + pt2_mul296; friction: t1_add195 = t1_add193 + t1_mul194)
     logic [W-1:0] c_pt2_add297;
     logic [2:0] fl_c_pt2_add297;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add297 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add297 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add295), .b(dl_c_pt2_mul296), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(c_pt2_add297), .flags(fl_c_pt2_add297)
     );
@@ -4615,7 +4618,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub287: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub287 = pt2_add281 - pt2_add286; friction: t1_sub185 = t1_add179 - t1_add184)
     logic [W-1:0] c_pt2_sub287;
     logic [2:0] fl_c_pt2_sub287;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub287 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub287 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add281), .b(dl_c_pt2_add286), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(c_pt2_sub287), .flags(fl_c_pt2_sub287)
     );
@@ -4629,7 +4632,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub298: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub298 = pt2_add292 - pt2_add297; friction: t1_sub196 = t1_add190 - t1_add195)
     logic [W-1:0] c_pt2_sub298;
     logic [2:0] fl_c_pt2_sub298;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub298 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub298 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add292), .b(dl_c_pt2_add297), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(c_pt2_sub298), .flags(fl_c_pt2_sub298)
     );
@@ -4643,7 +4646,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub287 + pt2_sub298; friction: t1_u = t1_sub185 + t1_sub196)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_c_pt2_sub287), .b(dl_c_pt2_sub298), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(c_pt2_vrel), .flags(fl_c_pt2_vrel)
     );
@@ -4664,7 +4667,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add300: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add300 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add300;
     logic [2:0] fl_c_pt2_add300;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add300 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add300 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[114]), .a(dl_c_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[217]), .y(c_pt2_add300), .flags(fl_c_pt2_add300)
     );
@@ -4698,7 +4701,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt2_add302_a = kind_q[121] ? dl_in_lamT1[0*W +: W] : dl_in_lam2[0*W +: W];
     logic [W-1:0] c_pt2_add302;
     logic [2:0] fl_c_pt2_add302;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add302 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add302 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(c_pt2_add302_a), .b(dl_c_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(c_pt2_add302), .flags(fl_c_pt2_add302)
     );
@@ -4731,7 +4734,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2)
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[126]), .a(dl_c_pt2_lam_new_max), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(c_pt2_delta), .flags(fl_c_pt2_delta)
     );
@@ -4934,7 +4937,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt2_add315_b = kind_q[133] ? dl_in_lamT1[1*W +: W] : dl_c_pt2_mul312;
     logic [W-1:0] c_pt2_add315;
     logic [2:0] fl_c_pt2_add315;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add315 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add315 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(c_pt2_add315_a), .b(c_pt2_add315_b), .sub(kind_q[133]),
         .out_valid(op_valid_nc[231]), .y(c_pt2_add315), .flags(fl_c_pt2_add315)
     );
@@ -4948,7 +4951,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add316: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add316 = pt1_vA_y + pt2_mul313)
     logic [W-1:0] c_pt2_add316;
     logic [2:0] fl_c_pt2_add316;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add316 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add316 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_y[1*W +: W]), .b(dl_c_pt2_mul313), .sub(1'b0),
         .out_valid(op_valid_nc[232]), .y(c_pt2_add316), .flags(fl_c_pt2_add316)
     );
@@ -4962,7 +4965,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add317: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add317 = pt1_vA_z + pt2_mul314)
     logic [W-1:0] c_pt2_add317;
     logic [2:0] fl_c_pt2_add317;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add317 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add317 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_z[1*W +: W]), .b(dl_c_pt2_mul314), .sub(1'b0),
         .out_valid(op_valid_nc[233]), .y(c_pt2_add317), .flags(fl_c_pt2_add317)
     );
@@ -4976,7 +4979,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add324: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add324 = pt1_wA_x + pt2_mul321)
     logic [W-1:0] c_pt2_add324;
     logic [2:0] fl_c_pt2_add324;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add324 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add324 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_x[1*W +: W]), .b(dl_c_pt2_mul321), .sub(1'b0),
         .out_valid(op_valid_nc[237]), .y(c_pt2_add324), .flags(fl_c_pt2_add324)
     );
@@ -4990,7 +4993,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add325: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add325 = pt1_wA_y + pt2_mul322)
     logic [W-1:0] c_pt2_add325;
     logic [2:0] fl_c_pt2_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_y[1*W +: W]), .b(dl_c_pt2_mul322), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(c_pt2_add325), .flags(fl_c_pt2_add325)
     );
@@ -5004,7 +5007,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_add326: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add326 = pt1_wA_z + pt2_mul323)
     logic [W-1:0] c_pt2_add326;
     logic [2:0] fl_c_pt2_add326;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add326 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add326 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_z[1*W +: W]), .b(dl_c_pt2_mul323), .sub(1'b0),
         .out_valid(op_valid_nc[239]), .y(c_pt2_add326), .flags(fl_c_pt2_add326)
     );
@@ -5018,7 +5021,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub333: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub333 = pt1_vB_x - pt2_mul330)
     logic [W-1:0] c_pt2_sub333;
     logic [2:0] fl_c_pt2_sub333;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub333 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub333 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_x[1*W +: W]), .b(dl_c_pt2_mul330), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(c_pt2_sub333), .flags(fl_c_pt2_sub333)
     );
@@ -5032,7 +5035,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub334: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub334 = pt1_vB_y - pt2_mul331)
     logic [W-1:0] c_pt2_sub334;
     logic [2:0] fl_c_pt2_sub334;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub334 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub334 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_y[1*W +: W]), .b(dl_c_pt2_mul331), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(c_pt2_sub334), .flags(fl_c_pt2_sub334)
     );
@@ -5046,7 +5049,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub335: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub335 = pt1_vB_z - pt2_mul332)
     logic [W-1:0] c_pt2_sub335;
     logic [2:0] fl_c_pt2_sub335;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub335 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub335 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_z[1*W +: W]), .b(dl_c_pt2_mul332), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(c_pt2_sub335), .flags(fl_c_pt2_sub335)
     );
@@ -5060,7 +5063,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub342: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub342 = pt1_wB_x - pt2_mul339)
     logic [W-1:0] c_pt2_sub342;
     logic [2:0] fl_c_pt2_sub342;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub342 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub342 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_x[1*W +: W]), .b(dl_c_pt2_mul339), .sub(1'b1),
         .out_valid(op_valid_nc[249]), .y(c_pt2_sub342), .flags(fl_c_pt2_sub342)
     );
@@ -5074,7 +5077,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub343: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub343 = pt1_wB_y - pt2_mul340)
     logic [W-1:0] c_pt2_sub343;
     logic [2:0] fl_c_pt2_sub343;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub343 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub343 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_y[1*W +: W]), .b(dl_c_pt2_mul340), .sub(1'b1),
         .out_valid(op_valid_nc[250]), .y(c_pt2_sub343), .flags(fl_c_pt2_sub343)
     );
@@ -5088,7 +5091,7 @@ module pgs_shared_pipe_mu #(
     // c_pt2_sub344: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub344 = pt1_wB_z - pt2_mul341)
     logic [W-1:0] c_pt2_sub344;
     logic [2:0] fl_c_pt2_sub344;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub344 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub344 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_z[1*W +: W]), .b(dl_c_pt2_mul341), .sub(1'b1),
         .out_valid(op_valid_nc[251]), .y(c_pt2_sub344), .flags(fl_c_pt2_sub344)
     );
@@ -5411,7 +5414,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add375_b = kind_q[140] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_mul374;
     logic [W-1:0] c_pt3_add375;
     logic [2:0] fl_c_pt3_add375;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add375 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add375 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_c_pt3_mul373), .b(c_pt3_add375_b), .sub(1'b0),
         .out_valid(op_valid_nc[278]), .y(c_pt3_add375), .flags(fl_c_pt3_add375)
     );
@@ -5429,7 +5432,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add380_b = kind_q[140] ? dl_c_pt3_mul374 : dl_c_pt3_mul379;
     logic [W-1:0] c_pt3_add380;
     logic [2:0] fl_c_pt3_add380;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add380 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add380 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add380_a), .b(c_pt3_add380_b), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(c_pt3_add380), .flags(fl_c_pt3_add380)
     );
@@ -5447,7 +5450,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add386_b = kind_q[140] ? dl_c_pt3_mul378 : dl_c_pt3_mul385[0*W +: W];
     logic [W-1:0] c_pt3_add386;
     logic [2:0] fl_c_pt3_add386;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add386 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add386 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add386_a), .b(c_pt3_add386_b), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(c_pt3_add386), .flags(fl_c_pt3_add386)
     );
@@ -5465,7 +5468,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add391_b = kind_q[140] ? dl_c_pt3_mul379 : dl_c_pt3_mul390[0*W +: W];
     logic [W-1:0] c_pt3_add391;
     logic [2:0] fl_c_pt3_add391;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add391 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add391 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add391_a), .b(c_pt3_add391_b), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(c_pt3_add391), .flags(fl_c_pt3_add391)
     );
@@ -5509,7 +5512,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add377_a = kind_q[144] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt3_add375;
     logic [W-1:0] c_pt3_add377;
     logic [2:0] fl_c_pt3_add377;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add377 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add377 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add377_a), .b(dl_c_pt3_mul376), .sub(1'b0),
         .out_valid(op_valid_nc[280]), .y(c_pt3_add377), .flags(fl_c_pt3_add377)
     );
@@ -5525,7 +5528,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add382_a = kind_q[144] ? dl_f_t0_wA_z[1*W +: W] : dl_c_pt3_add380;
     logic [W-1:0] c_pt3_add382;
     logic [2:0] fl_c_pt3_add382;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add382 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add382 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add382_a), .b(dl_c_pt3_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[285]), .y(c_pt3_add382), .flags(fl_c_pt3_add382)
     );
@@ -5543,7 +5546,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add388_b = kind_q[144] ? dl_c_pt3_mul384[1*W +: W] : dl_c_pt3_mul387[0*W +: W];
     logic [W-1:0] c_pt3_add388;
     logic [2:0] fl_c_pt3_add388;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add388 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add388 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add388_a), .b(c_pt3_add388_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[291]), .y(c_pt3_add388), .flags(fl_c_pt3_add388)
     );
@@ -5561,7 +5564,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add393_b = kind_q[144] ? dl_c_pt3_mul385[1*W +: W] : dl_c_pt3_mul392[0*W +: W];
     logic [W-1:0] c_pt3_add393;
     logic [2:0] fl_c_pt3_add393;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add393 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add393 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add393_a), .b(c_pt3_add393_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[296]), .y(c_pt3_add393), .flags(fl_c_pt3_add393)
     );
@@ -5603,7 +5606,7 @@ module pgs_shared_pipe_mu #(
     // f_spin_add257: fp_add @147/147/147 -> @151/151/151 (friction: spin_add257 = spin_mul255 + spin_mul256)
     logic [W-1:0] f_spin_add257;
     logic [2:0] fl_f_spin_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[147]), .a(dl_f_spin_mul255), .b(dl_f_spin_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[337]), .y(f_spin_add257), .flags(fl_f_spin_add257)
     );
@@ -5649,7 +5652,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_sub383_b = kind_q[148] ? dl_c_pt3_mul387[1*W +: W] : dl_c_pt3_add382;
     logic [W-1:0] c_pt3_sub383;
     logic [2:0] fl_c_pt3_sub383;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub383 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub383 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub383_a), .b(c_pt3_sub383_b), .sub(1'b1),
         .out_valid(op_valid_nc[286]), .y(c_pt3_sub383), .flags(fl_c_pt3_sub383)
     );
@@ -5667,7 +5670,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_sub394_b = kind_q[148] ? dl_c_pt3_mul389[1*W +: W] : dl_c_pt3_add393;
     logic [W-1:0] c_pt3_sub394;
     logic [2:0] fl_c_pt3_sub394;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub394 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub394 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub394_a), .b(c_pt3_sub394_b), .sub(1'b1),
         .out_valid(op_valid_nc[297]), .y(c_pt3_sub394), .flags(fl_c_pt3_sub394)
     );
@@ -5699,7 +5702,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_vrel_b = kind_q[152] ? dl_c_pt3_mul390[1*W +: W] : dl_c_pt3_sub394;
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(c_pt3_vrel_a), .b(c_pt3_vrel_b), .sub(kind_q[152]),
         .out_valid(op_valid_nc[298]), .y(c_pt3_vrel), .flags(fl_c_pt3_vrel)
     );
@@ -5738,7 +5741,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add396_b = kind_q[156] ? dl_c_pt3_mul392[1*W +: W] : dl_in_b3;
     logic [W-1:0] c_pt3_add396;
     logic [2:0] fl_c_pt3_add396;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add396 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add396 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(c_pt3_add396_a), .b(c_pt3_add396_b), .sub(kind_q[156]),
         .out_valid(op_valid_nc[299]), .y(c_pt3_add396), .flags(fl_c_pt3_add396)
     );
@@ -5766,7 +5769,7 @@ module pgs_shared_pipe_mu #(
     // f_spin_add269: fp_add @159/159/159 -> @163/163/163 (friction: spin_add269 = spin_mul267 + spin_mul268)
     logic [W-1:0] f_spin_add269;
     logic [2:0] fl_f_spin_add269;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add269 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add269 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[159]), .a(dl_f_spin_mul267), .b(dl_f_spin_mul268), .sub(1'b0),
         .out_valid(op_valid_nc[341]), .y(f_spin_add269), .flags(fl_f_spin_add269)
     );
@@ -5821,7 +5824,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add398_a = kind_q[163] ? dl_f_spin_add257 : dl_in_lam3[0*W +: W];
     logic [W-1:0] c_pt3_add398;
     logic [2:0] fl_c_pt3_add398;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add398 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add398 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(c_pt3_add398_a), .b(dl_c_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(c_pt3_add398), .flags(fl_c_pt3_add398)
     );
@@ -5835,7 +5838,7 @@ module pgs_shared_pipe_mu #(
     // f_spin_add271: fp_add @163/163/163 -> @167/167/167 (friction: spin_add271 = spin_add269 + spin_mul270)
     logic [W-1:0] f_spin_add271;
     logic [2:0] fl_f_spin_add271;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add271 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add271 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[163]), .a(dl_f_spin_add269), .b(dl_f_spin_mul270), .sub(1'b0),
         .out_valid(op_valid_nc[343]), .y(f_spin_add271), .flags(fl_f_spin_add271)
     );
@@ -5894,7 +5897,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[168]), .a(dl_c_pt3_lam_new_max), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[303]), .y(c_pt3_delta), .flags(fl_c_pt3_delta)
     );
@@ -6102,7 +6105,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add411_a = kind_q[175] ? dl_f_t1_wA_x[1*W +: W] : dl_c_pt2_vA_x[1*W +: W];
     logic [W-1:0] c_pt3_add411;
     logic [2:0] fl_c_pt3_add411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add411 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add411_a), .b(dl_c_pt3_mul408), .sub(kind_q[175]),
         .out_valid(op_valid_nc[313]), .y(c_pt3_add411), .flags(fl_c_pt3_add411)
     );
@@ -6118,7 +6121,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add412_a = kind_q[175] ? dl_f_t1_wA_y[1*W +: W] : dl_c_pt2_vA_y[1*W +: W];
     logic [W-1:0] c_pt3_add412;
     logic [2:0] fl_c_pt3_add412;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add412 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add412 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add412_a), .b(dl_c_pt3_mul409), .sub(kind_q[175]),
         .out_valid(op_valid_nc[314]), .y(c_pt3_add412), .flags(fl_c_pt3_add412)
     );
@@ -6134,7 +6137,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add413_a = kind_q[175] ? dl_f_t1_wA_z[1*W +: W] : dl_c_pt2_vA_z[1*W +: W];
     logic [W-1:0] c_pt3_add413;
     logic [2:0] fl_c_pt3_add413;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add413 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add413 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add413_a), .b(dl_c_pt3_mul410), .sub(kind_q[175]),
         .out_valid(op_valid_nc[315]), .y(c_pt3_add413), .flags(fl_c_pt3_add413)
     );
@@ -6150,7 +6153,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add420_a = kind_q[175] ? dl_f_t1_wB_x[1*W +: W] : dl_c_pt2_wA_x[1*W +: W];
     logic [W-1:0] c_pt3_add420;
     logic [2:0] fl_c_pt3_add420;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add420 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add420 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add420_a), .b(dl_c_pt3_mul417), .sub(kind_q[175]),
         .out_valid(op_valid_nc[319]), .y(c_pt3_add420), .flags(fl_c_pt3_add420)
     );
@@ -6166,7 +6169,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add421_a = kind_q[175] ? dl_f_t1_wB_y[1*W +: W] : dl_c_pt2_wA_y[1*W +: W];
     logic [W-1:0] c_pt3_add421;
     logic [2:0] fl_c_pt3_add421;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add421 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add421 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add421_a), .b(dl_c_pt3_mul418), .sub(kind_q[175]),
         .out_valid(op_valid_nc[320]), .y(c_pt3_add421), .flags(fl_c_pt3_add421)
     );
@@ -6182,7 +6185,7 @@ module pgs_shared_pipe_mu #(
     assign c_pt3_add422_a = kind_q[175] ? dl_f_t1_wB_z[1*W +: W] : dl_c_pt2_wA_z[1*W +: W];
     logic [W-1:0] c_pt3_add422;
     logic [2:0] fl_c_pt3_add422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add422 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add422_a), .b(dl_c_pt3_mul419), .sub(kind_q[175]),
         .out_valid(op_valid_nc[321]), .y(c_pt3_add422), .flags(fl_c_pt3_add422)
     );
@@ -6196,7 +6199,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_sub429: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub429 = pt2_vB_x - pt3_mul426)
     logic [W-1:0] c_pt3_sub429;
     logic [2:0] fl_c_pt3_sub429;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub429 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub429 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_x[1*W +: W]), .b(dl_c_pt3_mul426), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(c_pt3_sub429), .flags(fl_c_pt3_sub429)
     );
@@ -6210,7 +6213,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_sub430: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub430 = pt2_vB_y - pt3_mul427)
     logic [W-1:0] c_pt3_sub430;
     logic [2:0] fl_c_pt3_sub430;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub430 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub430 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_y[1*W +: W]), .b(dl_c_pt3_mul427), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(c_pt3_sub430), .flags(fl_c_pt3_sub430)
     );
@@ -6224,7 +6227,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_sub431: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub431 = pt2_vB_z - pt3_mul428)
     logic [W-1:0] c_pt3_sub431;
     logic [2:0] fl_c_pt3_sub431;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub431 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub431 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_z[1*W +: W]), .b(dl_c_pt3_mul428), .sub(1'b1),
         .out_valid(op_valid_nc[327]), .y(c_pt3_sub431), .flags(fl_c_pt3_sub431)
     );
@@ -6238,7 +6241,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_sub438: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub438 = pt2_wB_x - pt3_mul435)
     logic [W-1:0] c_pt3_sub438;
     logic [2:0] fl_c_pt3_sub438;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub438 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub438 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_x[1*W +: W]), .b(dl_c_pt3_mul435), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(c_pt3_sub438), .flags(fl_c_pt3_sub438)
     );
@@ -6252,7 +6255,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_sub439: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub439 = pt2_wB_y - pt3_mul436)
     logic [W-1:0] c_pt3_sub439;
     logic [2:0] fl_c_pt3_sub439;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub439 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub439 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_y[1*W +: W]), .b(dl_c_pt3_mul436), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(c_pt3_sub439), .flags(fl_c_pt3_sub439)
     );
@@ -6266,7 +6269,7 @@ module pgs_shared_pipe_mu #(
     // c_pt3_sub440: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub440 = pt2_wB_z - pt3_mul437)
     logic [W-1:0] c_pt3_sub440;
     logic [2:0] fl_c_pt3_sub440;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub440 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub440 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_z[1*W +: W]), .b(dl_c_pt3_mul437), .sub(1'b1),
         .out_valid(op_valid_nc[333]), .y(c_pt3_sub440), .flags(fl_c_pt3_sub440)
     );

@@ -37,6 +37,9 @@ module pgs_shared_pipe_mu_soft #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 57,
     localparam int N_OUT    = 16,
@@ -731,7 +734,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_rA_x_b = kind_q[0] ? dl_in_lam1[0*W +: W] : dl_in_xA_x;
     logic [W-1:0] c_pt0_rA_x;
     logic [2:0] fl_c_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_x_a), .b(c_pt0_rA_x_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[6]), .y(c_pt0_rA_x), .flags(fl_c_pt0_rA_x)
     );
@@ -749,7 +752,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_rA_y_b = kind_q[0] ? dl_in_lam3[0*W +: W] : dl_in_xA_y;
     logic [W-1:0] c_pt0_rA_y;
     logic [2:0] fl_c_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_y_a), .b(c_pt0_rA_y_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[7]), .y(c_pt0_rA_y), .flags(fl_c_pt0_rA_y)
     );
@@ -763,7 +766,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rA_z = p0_z - xA_z; friction: rA_z = c_z - xA_z)
     logic [W-1:0] c_pt0_rA_z;
     logic [2:0] fl_c_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(c_pt0_rA_z), .flags(fl_c_pt0_rA_z)
     );
@@ -779,7 +782,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_rB_x_b = kind_q[0] ? dl_in_xA_x : dl_in_xB_x;
     logic [W-1:0] c_pt0_rB_x;
     logic [2:0] fl_c_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x__c_x), .b(c_pt0_rB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(c_pt0_rB_x), .flags(fl_c_pt0_rB_x)
     );
@@ -795,7 +798,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_rB_y_b = kind_q[0] ? dl_in_xA_y : dl_in_xB_y;
     logic [W-1:0] c_pt0_rB_y;
     logic [2:0] fl_c_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y__c_y), .b(c_pt0_rB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(c_pt0_rB_y), .flags(fl_c_pt0_rB_y)
     );
@@ -809,7 +812,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rB_z = p0_z - xB_z; friction: rB_z = c_z - xB_z)
     logic [W-1:0] c_pt0_rB_z;
     logic [2:0] fl_c_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(c_pt0_rB_z), .flags(fl_c_pt0_rB_z)
     );
@@ -937,7 +940,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_x = p1_x - xA_x)
     logic [W-1:0] c_pt1_rA_x;
     logic [2:0] fl_c_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_x__t0_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(c_pt1_rA_x), .flags(fl_c_pt1_rA_x)
     );
@@ -951,7 +954,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_y = p1_y - xA_y)
     logic [W-1:0] c_pt1_rA_y;
     logic [2:0] fl_c_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_y__t0_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(c_pt1_rA_y), .flags(fl_c_pt1_rA_y)
     );
@@ -965,7 +968,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_z = p1_z - xA_z)
     logic [W-1:0] c_pt1_rA_z;
     logic [2:0] fl_c_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(c_pt1_rA_z), .flags(fl_c_pt1_rA_z)
     );
@@ -981,7 +984,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_rB_x_a = kind_q[0] ? dl_in_p0_x__c_x : dl_in_p1_x__t0_x[0*W +: W];
     logic [W-1:0] c_pt1_rB_x;
     logic [2:0] fl_c_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_x_a), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(c_pt1_rB_x), .flags(fl_c_pt1_rB_x)
     );
@@ -997,7 +1000,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_rB_y_a = kind_q[0] ? dl_in_p0_y__c_y : dl_in_p1_y__t0_y[0*W +: W];
     logic [W-1:0] c_pt1_rB_y;
     logic [2:0] fl_c_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_y_a), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(c_pt1_rB_y), .flags(fl_c_pt1_rB_y)
     );
@@ -1011,7 +1014,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rB_z = p1_z - xB_z)
     logic [W-1:0] c_pt1_rB_z;
     logic [2:0] fl_c_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(c_pt1_rB_z), .flags(fl_c_pt1_rB_z)
     );
@@ -1043,7 +1046,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_x = p2_x - xA_x)
     logic [W-1:0] c_pt2_rA_x;
     logic [2:0] fl_c_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(c_pt2_rA_x), .flags(fl_c_pt2_rA_x)
     );
@@ -1057,7 +1060,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_y = p2_y - xA_y)
     logic [W-1:0] c_pt2_rA_y;
     logic [2:0] fl_c_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(c_pt2_rA_y), .flags(fl_c_pt2_rA_y)
     );
@@ -1071,7 +1074,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_z = p2_z - xA_z)
     logic [W-1:0] c_pt2_rA_z;
     logic [2:0] fl_c_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[174]), .y(c_pt2_rA_z), .flags(fl_c_pt2_rA_z)
     );
@@ -1085,7 +1088,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_x = p2_x - xB_x)
     logic [W-1:0] c_pt2_rB_x;
     logic [2:0] fl_c_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(c_pt2_rB_x), .flags(fl_c_pt2_rB_x)
     );
@@ -1099,7 +1102,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_y = p2_y - xB_y)
     logic [W-1:0] c_pt2_rB_y;
     logic [2:0] fl_c_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(c_pt2_rB_y), .flags(fl_c_pt2_rB_y)
     );
@@ -1113,7 +1116,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_z = p2_z - xB_z)
     logic [W-1:0] c_pt2_rB_z;
     logic [2:0] fl_c_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[186]), .y(c_pt2_rB_z), .flags(fl_c_pt2_rB_z)
     );
@@ -1145,7 +1148,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_x = p3_x - xA_x)
     logic [W-1:0] c_pt3_rA_x;
     logic [2:0] fl_c_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[255]), .y(c_pt3_rA_x), .flags(fl_c_pt3_rA_x)
     );
@@ -1159,7 +1162,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_y = p3_y - xA_y)
     logic [W-1:0] c_pt3_rA_y;
     logic [2:0] fl_c_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[256]), .y(c_pt3_rA_y), .flags(fl_c_pt3_rA_y)
     );
@@ -1173,7 +1176,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_z = p3_z - xA_z)
     logic [W-1:0] c_pt3_rA_z;
     logic [2:0] fl_c_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(c_pt3_rA_z), .flags(fl_c_pt3_rA_z)
     );
@@ -1187,7 +1190,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_x = p3_x - xB_x)
     logic [W-1:0] c_pt3_rB_x;
     logic [2:0] fl_c_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[267]), .y(c_pt3_rB_x), .flags(fl_c_pt3_rB_x)
     );
@@ -1201,7 +1204,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_y = p3_y - xB_y)
     logic [W-1:0] c_pt3_rB_y;
     logic [2:0] fl_c_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[268]), .y(c_pt3_rB_y), .flags(fl_c_pt3_rB_y)
     );
@@ -1215,7 +1218,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_z = p3_z - xB_z)
     logic [W-1:0] c_pt3_rB_z;
     logic [2:0] fl_c_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(c_pt3_rB_z), .flags(fl_c_pt3_rB_z)
     );
@@ -1247,7 +1250,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add107: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add107 = pt0_mul105 + pt0_mul106; friction: t0_add80 = t0_mul78 + t0_mul79)
     logic [W-1:0] c_pt0_add107;
     logic [2:0] fl_c_pt0_add107;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add107 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add107 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul105), .b(dl_c_pt0_mul106), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(c_pt0_add107), .flags(fl_c_pt0_add107)
     );
@@ -1261,7 +1264,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add112: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add112 = pt0_mul110 + pt0_mul111; friction: t0_add85 = t0_mul83 + t0_mul84)
     logic [W-1:0] c_pt0_add112;
     logic [2:0] fl_c_pt0_add112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add112 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul110), .b(dl_c_pt0_mul111), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(c_pt0_add112), .flags(fl_c_pt0_add112)
     );
@@ -2031,7 +2034,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_cA_x_b = kind_q[7] ? dl_c_pt0_rA_y[1*W +: W] : dl_c_pt0_mul85;
     logic [W-1:0] c_pt0_cA_x;
     logic [2:0] fl_c_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_x_a), .b(c_pt0_cA_x_b), .sub(!kind_q[7]),
         .out_valid(op_valid_nc[11]), .y(c_pt0_cA_x), .flags(fl_c_pt0_cA_x)
     );
@@ -2047,7 +2050,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_cA_y_b = kind_q[7] ? dl_c_pt0_mul100 : dl_c_pt0_mul88;
     logic [W-1:0] c_pt0_cA_y;
     logic [2:0] fl_c_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul87), .b(c_pt0_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(c_pt0_cA_y), .flags(fl_c_pt0_cA_y)
     );
@@ -2065,7 +2068,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_cA_z_b = kind_q[7] ? dl_c_pt0_mul88 : dl_c_pt0_mul91;
     logic [W-1:0] c_pt0_cA_z;
     logic [2:0] fl_c_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_z_a), .b(c_pt0_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(c_pt0_cA_z), .flags(fl_c_pt0_cA_z)
     );
@@ -2081,7 +2084,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_cB_x_b = kind_q[7] ? dl_c_pt0_mul85 : dl_c_pt0_mul97;
     logic [W-1:0] c_pt0_cB_x;
     logic [2:0] fl_c_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul96), .b(c_pt0_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(c_pt0_cB_x), .flags(fl_c_pt0_cB_x)
     );
@@ -2097,7 +2100,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_cB_y_b = kind_q[7] ? dl_c_pt1_mul197 : dl_c_pt0_mul100;
     logic [W-1:0] c_pt0_cB_y;
     logic [2:0] fl_c_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul99), .b(c_pt0_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(c_pt0_cB_y), .flags(fl_c_pt0_cB_y)
     );
@@ -2111,7 +2114,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_z = pt0_mul102 - pt0_mul103; friction: t0_cA_z = t0_mul66 - t0_mul67)
     logic [W-1:0] c_pt0_cB_z;
     logic [2:0] fl_c_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul102), .b(dl_c_pt0_mul103), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(c_pt0_cB_z), .flags(fl_c_pt0_cB_z)
     );
@@ -2125,7 +2128,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add109: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add109 = pt0_add107 + pt0_mul108; friction: t0_add82 = t0_add80 + t0_mul81)
     logic [W-1:0] c_pt0_add109;
     logic [2:0] fl_c_pt0_add109;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add109 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add109 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add107), .b(dl_c_pt0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(c_pt0_add109), .flags(fl_c_pt0_add109)
     );
@@ -2139,7 +2142,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add114: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add114 = pt0_add112 + pt0_mul113; friction: t0_add87 = t0_add85 + t0_mul86)
     logic [W-1:0] c_pt0_add114;
     logic [2:0] fl_c_pt0_add114;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add114 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add114 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add112), .b(dl_c_pt0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(c_pt0_add114), .flags(fl_c_pt0_add114)
     );
@@ -2157,7 +2160,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_cA_x_b = kind_q[7] ? dl_c_pt0_mul91 : dl_c_pt1_mul182;
     logic [W-1:0] c_pt1_cA_x;
     logic [2:0] fl_c_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_x_a), .b(c_pt1_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(c_pt1_cA_x), .flags(fl_c_pt1_cA_x)
     );
@@ -2175,7 +2178,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_cA_y_b = kind_q[7] ? dl_c_pt1_mul182 : dl_c_pt1_mul185;
     logic [W-1:0] c_pt1_cA_y;
     logic [2:0] fl_c_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_y_a), .b(c_pt1_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(c_pt1_cA_y), .flags(fl_c_pt1_cA_y)
     );
@@ -2193,7 +2196,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_cA_z_b = kind_q[7] ? dl_c_pt1_mul185 : dl_c_pt1_mul188;
     logic [W-1:0] c_pt1_cA_z;
     logic [2:0] fl_c_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_z_a), .b(c_pt1_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(c_pt1_cA_z), .flags(fl_c_pt1_cA_z)
     );
@@ -2209,7 +2212,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_cB_x_b = kind_q[7] ? dl_c_pt0_mul97 : dl_c_pt1_mul194;
     logic [W-1:0] c_pt1_cB_x;
     logic [2:0] fl_c_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul193), .b(c_pt1_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(c_pt1_cB_x), .flags(fl_c_pt1_cB_x)
     );
@@ -2227,7 +2230,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_cB_y_b = kind_q[7] ? dl_c_pt1_mul188 : dl_c_pt1_mul197;
     logic [W-1:0] c_pt1_cB_y;
     logic [2:0] fl_c_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cB_y_a), .b(c_pt1_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(c_pt1_cB_y), .flags(fl_c_pt1_cB_y)
     );
@@ -2241,7 +2244,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_z = pt1_mul199 - pt1_mul200; friction: t0_cB_z = t0_mul75 - t0_mul76)
     logic [W-1:0] c_pt1_cB_z;
     logic [2:0] fl_c_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul199), .b(dl_c_pt1_mul200), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(c_pt1_cB_z), .flags(fl_c_pt1_cB_z)
     );
@@ -2259,7 +2262,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt2_cA_x_b = kind_q[7] ? dl_c_pt1_mul196 : dl_c_pt2_mul279[0*W +: W];
     logic [W-1:0] c_pt2_cA_x;
     logic [2:0] fl_c_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt2_cA_x_a), .b(c_pt2_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[177]), .y(c_pt2_cA_x), .flags(fl_c_pt2_cA_x)
     );
@@ -2273,7 +2276,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_y = pt2_mul281 - pt2_mul282)
     logic [W-1:0] c_pt2_cA_y;
     logic [2:0] fl_c_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul281), .b(dl_c_pt2_mul282), .sub(1'b1),
         .out_valid(op_valid_nc[180]), .y(c_pt2_cA_y), .flags(fl_c_pt2_cA_y)
     );
@@ -2287,7 +2290,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_z = pt2_mul284 - pt2_mul285)
     logic [W-1:0] c_pt2_cA_z;
     logic [2:0] fl_c_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul284), .b(dl_c_pt2_mul285), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(c_pt2_cA_z), .flags(fl_c_pt2_cA_z)
     );
@@ -2301,7 +2304,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_x = pt2_mul290 - pt2_mul291)
     logic [W-1:0] c_pt2_cB_x;
     logic [2:0] fl_c_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul290), .b(dl_c_pt2_mul291), .sub(1'b1),
         .out_valid(op_valid_nc[189]), .y(c_pt2_cB_x), .flags(fl_c_pt2_cB_x)
     );
@@ -2315,7 +2318,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_y = pt2_mul293 - pt2_mul294)
     logic [W-1:0] c_pt2_cB_y;
     logic [2:0] fl_c_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul293), .b(dl_c_pt2_mul294), .sub(1'b1),
         .out_valid(op_valid_nc[192]), .y(c_pt2_cB_y), .flags(fl_c_pt2_cB_y)
     );
@@ -2329,7 +2332,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_z = pt2_mul296 - pt2_mul297)
     logic [W-1:0] c_pt2_cB_z;
     logic [2:0] fl_c_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul296), .b(dl_c_pt2_mul297), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(c_pt2_cB_z), .flags(fl_c_pt2_cB_z)
     );
@@ -2343,7 +2346,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_x = pt3_mul375 - pt3_mul376)
     logic [W-1:0] c_pt3_cA_x;
     logic [2:0] fl_c_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul375), .b(dl_c_pt3_mul376), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(c_pt3_cA_x), .flags(fl_c_pt3_cA_x)
     );
@@ -2357,7 +2360,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_y = pt3_mul378 - pt3_mul379)
     logic [W-1:0] c_pt3_cA_y;
     logic [2:0] fl_c_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul378), .b(dl_c_pt3_mul379), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(c_pt3_cA_y), .flags(fl_c_pt3_cA_y)
     );
@@ -2371,7 +2374,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_z = pt3_mul381 - pt3_mul382)
     logic [W-1:0] c_pt3_cA_z;
     logic [2:0] fl_c_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul381), .b(dl_c_pt3_mul382), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(c_pt3_cA_z), .flags(fl_c_pt3_cA_z)
     );
@@ -2385,7 +2388,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_x = pt3_mul387 - pt3_mul388)
     logic [W-1:0] c_pt3_cB_x;
     logic [2:0] fl_c_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul387), .b(dl_c_pt3_mul388), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(c_pt3_cB_x), .flags(fl_c_pt3_cB_x)
     );
@@ -2399,7 +2402,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_y = pt3_mul390 - pt3_mul391)
     logic [W-1:0] c_pt3_cB_y;
     logic [2:0] fl_c_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul390), .b(dl_c_pt3_mul391), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(c_pt3_cB_y), .flags(fl_c_pt3_cB_y)
     );
@@ -2413,7 +2416,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_z = pt3_mul393 - pt3_mul394)
     logic [W-1:0] c_pt3_cB_z;
     logic [2:0] fl_c_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul393), .b(dl_c_pt3_mul394), .sub(1'b1),
         .out_valid(op_valid_nc[278]), .y(c_pt3_cB_z), .flags(fl_c_pt3_cB_z)
     );
@@ -2427,7 +2430,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub115: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub115 = pt0_add109 - pt0_add114; friction: t0_sub88 = t0_add82 - t0_add87)
     logic [W-1:0] c_pt0_sub115;
     logic [2:0] fl_c_pt0_sub115;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub115 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub115 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_c_pt0_add109), .b(dl_c_pt0_add114), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(c_pt0_sub115), .flags(fl_c_pt0_sub115)
     );
@@ -2896,7 +2899,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_add118_a = kind_q[14] ? dl_c_pt0_mul121 : dl_c_pt0_mul116[0*W +: W];
     logic [W-1:0] c_pt0_add118;
     logic [2:0] fl_c_pt0_add118;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add118 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add118 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add118_a), .b(dl_c_pt0_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(c_pt0_add118), .flags(fl_c_pt0_add118)
     );
@@ -2912,7 +2915,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_add123_a = kind_q[14] ? dl_c_pt1_angB_x[1*W +: W] : dl_c_pt0_mul121;
     logic [W-1:0] c_pt0_add123;
     logic [2:0] fl_c_pt0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add123_a), .b(dl_c_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(c_pt0_add123), .flags(fl_c_pt0_add123)
     );
@@ -2926,7 +2929,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add120: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add120 = pt0_add118 + pt0_mul119; friction: t0_add93 = t0_add91 + t0_mul92)
     logic [W-1:0] c_pt0_add120;
     logic [2:0] fl_c_pt0_add120;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add120 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add120 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add118), .b(dl_c_pt0_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(c_pt0_add120), .flags(fl_c_pt0_add120)
     );
@@ -2940,7 +2943,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add125: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add125 = pt0_add123 + pt0_mul124; friction: t0_add98 = t0_add96 + t0_mul97)
     logic [W-1:0] c_pt0_add125;
     logic [2:0] fl_c_pt0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add123), .b(dl_c_pt0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(c_pt0_add125), .flags(fl_c_pt0_add125)
     );
@@ -2954,7 +2957,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub126: fp_add @22/22/22 -> @26/26/26 (contact: pt0_sub126 = pt0_add120 - pt0_add125; friction: t0_sub99 = t0_add93 - t0_add98)
     logic [W-1:0] c_pt0_sub126;
     logic [2:0] fl_c_pt0_sub126;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub126 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub126 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_c_pt0_add120), .b(dl_c_pt0_add125), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(c_pt0_sub126), .flags(fl_c_pt0_sub126)
     );
@@ -2968,7 +2971,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_vrel: fp_add @26/26/26 -> @30/30/30 (contact: pt0_vrel = pt0_sub115 + pt0_sub126; friction: t0_u = t0_sub88 + t0_sub99)
     logic [W-1:0] c_pt0_vrel;
     logic [2:0] fl_c_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_c_pt0_sub115), .b(dl_c_pt0_sub126), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(c_pt0_vrel), .flags(fl_c_pt0_vrel)
     );
@@ -2989,7 +2992,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add128: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add128 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add128;
     logic [2:0] fl_c_pt0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[30]), .a(dl_c_pt0_vrel), .b(dl_in_b0[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(c_pt0_add128), .flags(fl_c_pt0_add128)
     );
@@ -3023,7 +3026,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt0_add131_a = kind_q[37] ? dl_in_lamT0[0*W +: W] : dl_c_pt0_lam_kept[0*W +: W];
     logic [W-1:0] c_pt0_add131;
     logic [2:0] fl_c_pt0_add131;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add131 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add131 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(c_pt0_add131_a), .b(dl_c_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[56]), .y(c_pt0_add131), .flags(fl_c_pt0_add131)
     );
@@ -3056,7 +3059,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[42]), .a(dl_c_pt0_lam_new_max[0*W +: W]), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[58]), .y(c_pt0_delta), .flags(fl_c_pt0_delta)
     );
@@ -3238,7 +3241,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add144: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add144 = vA_x + pt0_mul141)
     logic [W-1:0] c_pt0_add144;
     logic [2:0] fl_c_pt0_add144;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add144 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add144 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_c_pt0_mul141), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(c_pt0_add144), .flags(fl_c_pt0_add144)
     );
@@ -3252,7 +3255,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add145: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add145 = vA_y + pt0_mul142)
     logic [W-1:0] c_pt0_add145;
     logic [2:0] fl_c_pt0_add145;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add145 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add145 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_c_pt0_mul142), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(c_pt0_add145), .flags(fl_c_pt0_add145)
     );
@@ -3266,7 +3269,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add146: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add146 = vA_z + pt0_mul143)
     logic [W-1:0] c_pt0_add146;
     logic [2:0] fl_c_pt0_add146;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add146 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add146 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_c_pt0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(c_pt0_add146), .flags(fl_c_pt0_add146)
     );
@@ -3280,7 +3283,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add153: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add153 = wA_x + pt0_mul150)
     logic [W-1:0] c_pt0_add153;
     logic [2:0] fl_c_pt0_add153;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add153 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add153 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_c_pt0_mul150), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(c_pt0_add153), .flags(fl_c_pt0_add153)
     );
@@ -3294,7 +3297,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add154: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add154 = wA_y + pt0_mul151)
     logic [W-1:0] c_pt0_add154;
     logic [2:0] fl_c_pt0_add154;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add154 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add154 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_c_pt0_mul151), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(c_pt0_add154), .flags(fl_c_pt0_add154)
     );
@@ -3308,7 +3311,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_add155: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add155 = wA_z + pt0_mul152)
     logic [W-1:0] c_pt0_add155;
     logic [2:0] fl_c_pt0_add155;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add155 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add155 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_c_pt0_mul152), .sub(1'b0),
         .out_valid(op_valid_nc[76]), .y(c_pt0_add155), .flags(fl_c_pt0_add155)
     );
@@ -3322,7 +3325,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub162: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub162 = vB_x - pt0_mul159)
     logic [W-1:0] c_pt0_sub162;
     logic [2:0] fl_c_pt0_sub162;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub162 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub162 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_c_pt0_mul159), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(c_pt0_sub162), .flags(fl_c_pt0_sub162)
     );
@@ -3336,7 +3339,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub163: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub163 = vB_y - pt0_mul160)
     logic [W-1:0] c_pt0_sub163;
     logic [2:0] fl_c_pt0_sub163;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub163 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub163 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_c_pt0_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(c_pt0_sub163), .flags(fl_c_pt0_sub163)
     );
@@ -3350,7 +3353,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub164: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub164 = vB_z - pt0_mul161)
     logic [W-1:0] c_pt0_sub164;
     logic [2:0] fl_c_pt0_sub164;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub164 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub164 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_c_pt0_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(c_pt0_sub164), .flags(fl_c_pt0_sub164)
     );
@@ -3364,7 +3367,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub171: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub171 = wB_x - pt0_mul168)
     logic [W-1:0] c_pt0_sub171;
     logic [2:0] fl_c_pt0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_c_pt0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(c_pt0_sub171), .flags(fl_c_pt0_sub171)
     );
@@ -3378,7 +3381,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub172: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub172 = wB_y - pt0_mul169)
     logic [W-1:0] c_pt0_sub172;
     logic [2:0] fl_c_pt0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_c_pt0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(c_pt0_sub172), .flags(fl_c_pt0_sub172)
     );
@@ -3392,7 +3395,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt0_sub173: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub173 = wB_z - pt0_mul170)
     logic [W-1:0] c_pt0_sub173;
     logic [2:0] fl_c_pt0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_c_pt0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(c_pt0_sub173), .flags(fl_c_pt0_sub173)
     );
@@ -3658,7 +3661,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add204: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add204 = pt1_mul202 + pt1_mul203)
     logic [W-1:0] c_pt1_add204;
     logic [2:0] fl_c_pt1_add204;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add204 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add204 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul202), .b(dl_c_pt1_mul203), .sub(1'b0),
         .out_valid(op_valid_nc[115]), .y(c_pt1_add204), .flags(fl_c_pt1_add204)
     );
@@ -3672,7 +3675,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add209: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add209 = pt1_mul207 + pt1_mul208)
     logic [W-1:0] c_pt1_add209;
     logic [2:0] fl_c_pt1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul207), .b(dl_c_pt1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[120]), .y(c_pt1_add209), .flags(fl_c_pt1_add209)
     );
@@ -3686,7 +3689,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add215: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add215 = pt1_mul213 + pt1_mul214)
     logic [W-1:0] c_pt1_add215;
     logic [2:0] fl_c_pt1_add215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add215 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul213), .b(dl_c_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[126]), .y(c_pt1_add215), .flags(fl_c_pt1_add215)
     );
@@ -3700,7 +3703,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add220: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add220 = pt1_mul218 + pt1_mul219)
     logic [W-1:0] c_pt1_add220;
     logic [2:0] fl_c_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul218), .b(dl_c_pt1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[131]), .y(c_pt1_add220), .flags(fl_c_pt1_add220)
     );
@@ -3714,7 +3717,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add206: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add206 = pt1_add204 + pt1_mul205)
     logic [W-1:0] c_pt1_add206;
     logic [2:0] fl_c_pt1_add206;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add206 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add206 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add204), .b(dl_c_pt1_mul205), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(c_pt1_add206), .flags(fl_c_pt1_add206)
     );
@@ -3728,7 +3731,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add211: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add211 = pt1_add209 + pt1_mul210)
     logic [W-1:0] c_pt1_add211;
     logic [2:0] fl_c_pt1_add211;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add211 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add211 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add209), .b(dl_c_pt1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[122]), .y(c_pt1_add211), .flags(fl_c_pt1_add211)
     );
@@ -3742,7 +3745,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add217: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add217 = pt1_add215 + pt1_mul216)
     logic [W-1:0] c_pt1_add217;
     logic [2:0] fl_c_pt1_add217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add217 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add215), .b(dl_c_pt1_mul216), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(c_pt1_add217), .flags(fl_c_pt1_add217)
     );
@@ -3756,7 +3759,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add222: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add222 = pt1_add220 + pt1_mul221)
     logic [W-1:0] c_pt1_add222;
     logic [2:0] fl_c_pt1_add222;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add222 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add222 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add220), .b(dl_c_pt1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[133]), .y(c_pt1_add222), .flags(fl_c_pt1_add222)
     );
@@ -3770,7 +3773,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_sub212: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub212 = pt1_add206 - pt1_add211)
     logic [W-1:0] c_pt1_sub212;
     logic [2:0] fl_c_pt1_sub212;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub212 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub212 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add206), .b(dl_c_pt1_add211), .sub(1'b1),
         .out_valid(op_valid_nc[123]), .y(c_pt1_sub212), .flags(fl_c_pt1_sub212)
     );
@@ -3784,7 +3787,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_sub223: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub223 = pt1_add217 - pt1_add222)
     logic [W-1:0] c_pt1_sub223;
     logic [2:0] fl_c_pt1_sub223;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub223 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub223 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add217), .b(dl_c_pt1_add222), .sub(1'b1),
         .out_valid(op_valid_nc[134]), .y(c_pt1_sub223), .flags(fl_c_pt1_sub223)
     );
@@ -3798,7 +3801,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub212 + pt1_sub223)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[68]), .a(dl_c_pt1_sub212), .b(dl_c_pt1_sub223), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(c_pt1_vrel), .flags(fl_c_pt1_vrel)
     );
@@ -3812,7 +3815,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add225: fp_add @72/72/72 -> @76/76/76 (contact: pt1_add225 = pt1_vrel + b1)
     logic [W-1:0] c_pt1_add225;
     logic [2:0] fl_c_pt1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[72]), .a(dl_c_pt1_vrel), .b(dl_in_b1[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[136]), .y(c_pt1_add225), .flags(fl_c_pt1_add225)
     );
@@ -3840,7 +3843,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt1_add228: fp_add @79/79/79 -> @83/83/83 (contact: pt1_add228 = pt1_lam_kept + pt1_delta0)
     logic [W-1:0] c_pt1_add228;
     logic [2:0] fl_c_pt1_add228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add228 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[79]), .a(dl_c_pt1_lam_kept[0*W +: W]), .b(dl_c_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[139]), .y(c_pt1_add228), .flags(fl_c_pt1_add228)
     );
@@ -3890,7 +3893,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_delta_b = kind_q[84] ? dl_in_lamT0[1*W +: W] : dl_in_lam1[1*W +: W];
     logic [W-1:0] c_pt1_delta;
     logic [2:0] fl_c_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(c_pt1_delta_a), .b(c_pt1_delta_b), .sub(1'b1),
         .out_valid(op_valid_nc[141]), .y(c_pt1_delta), .flags(fl_c_pt1_delta)
     );
@@ -4115,7 +4118,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_add241_a = kind_q[91] ? dl_in_vA_x[3*W +: W] : dl_c_pt0_vA_x[1*W +: W];
     logic [W-1:0] c_pt1_add241;
     logic [2:0] fl_c_pt1_add241;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add241 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add241 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add241_a), .b(dl_c_pt1_mul238), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(c_pt1_add241), .flags(fl_c_pt1_add241)
     );
@@ -4131,7 +4134,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_add242_a = kind_q[91] ? dl_in_vA_y[3*W +: W] : dl_c_pt0_vA_y[1*W +: W];
     logic [W-1:0] c_pt1_add242;
     logic [2:0] fl_c_pt1_add242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add242_a), .b(dl_c_pt1_mul239), .sub(1'b0),
         .out_valid(op_valid_nc[152]), .y(c_pt1_add242), .flags(fl_c_pt1_add242)
     );
@@ -4147,7 +4150,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_add243_a = kind_q[91] ? dl_in_vA_z[3*W +: W] : dl_c_pt0_vA_z[1*W +: W];
     logic [W-1:0] c_pt1_add243;
     logic [2:0] fl_c_pt1_add243;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add243 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add243 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add243_a), .b(dl_c_pt1_mul240), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(c_pt1_add243), .flags(fl_c_pt1_add243)
     );
@@ -4163,7 +4166,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_add250_a = kind_q[91] ? dl_in_wA_x[3*W +: W] : dl_c_pt0_wA_x[1*W +: W];
     logic [W-1:0] c_pt1_add250;
     logic [2:0] fl_c_pt1_add250;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add250 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add250 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add250_a), .b(dl_c_pt1_mul247), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(c_pt1_add250), .flags(fl_c_pt1_add250)
     );
@@ -4179,7 +4182,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_add251_a = kind_q[91] ? dl_in_wA_y[3*W +: W] : dl_c_pt0_wA_y[1*W +: W];
     logic [W-1:0] c_pt1_add251;
     logic [2:0] fl_c_pt1_add251;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add251 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add251 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add251_a), .b(dl_c_pt1_mul248), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(c_pt1_add251), .flags(fl_c_pt1_add251)
     );
@@ -4195,7 +4198,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_add252_a = kind_q[91] ? dl_in_wA_z[3*W +: W] : dl_c_pt0_wA_z[1*W +: W];
     logic [W-1:0] c_pt1_add252;
     logic [2:0] fl_c_pt1_add252;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add252 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add252 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add252_a), .b(dl_c_pt1_mul249), .sub(1'b0),
         .out_valid(op_valid_nc[159]), .y(c_pt1_add252), .flags(fl_c_pt1_add252)
     );
@@ -4211,7 +4214,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_sub259_a = kind_q[91] ? dl_in_vB_x[3*W +: W] : dl_c_pt0_vB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub259;
     logic [2:0] fl_c_pt1_sub259;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub259 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub259 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub259_a), .b(dl_c_pt1_mul256), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(c_pt1_sub259), .flags(fl_c_pt1_sub259)
     );
@@ -4227,7 +4230,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_sub260_a = kind_q[91] ? dl_in_vB_y[3*W +: W] : dl_c_pt0_vB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub260;
     logic [2:0] fl_c_pt1_sub260;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub260 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub260 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub260_a), .b(dl_c_pt1_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(c_pt1_sub260), .flags(fl_c_pt1_sub260)
     );
@@ -4243,7 +4246,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_sub261_a = kind_q[91] ? dl_in_vB_z[3*W +: W] : dl_c_pt0_vB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub261;
     logic [2:0] fl_c_pt1_sub261;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub261 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub261 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub261_a), .b(dl_c_pt1_mul258), .sub(1'b1),
         .out_valid(op_valid_nc[165]), .y(c_pt1_sub261), .flags(fl_c_pt1_sub261)
     );
@@ -4259,7 +4262,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_sub268_a = kind_q[91] ? dl_in_wB_x[3*W +: W] : dl_c_pt0_wB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub268;
     logic [2:0] fl_c_pt1_sub268;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub268 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub268 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub268_a), .b(dl_c_pt1_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(c_pt1_sub268), .flags(fl_c_pt1_sub268)
     );
@@ -4275,7 +4278,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_sub269_a = kind_q[91] ? dl_in_wB_y[3*W +: W] : dl_c_pt0_wB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub269;
     logic [2:0] fl_c_pt1_sub269;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub269 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub269 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub269_a), .b(dl_c_pt1_mul266), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(c_pt1_sub269), .flags(fl_c_pt1_sub269)
     );
@@ -4291,7 +4294,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt1_sub270_a = kind_q[91] ? dl_in_wB_z[3*W +: W] : dl_c_pt0_wB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub270;
     logic [2:0] fl_c_pt1_sub270;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub270 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub270 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub270_a), .b(dl_c_pt1_mul267), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(c_pt1_sub270), .flags(fl_c_pt1_sub270)
     );
@@ -4689,7 +4692,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add301: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add301 = pt2_mul299 + pt2_mul300; friction: t1_add177 = t1_mul175 + t1_mul176)
     logic [W-1:0] c_pt2_add301;
     logic [2:0] fl_c_pt2_add301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add301 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul299), .b(dl_c_pt2_mul300), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(c_pt2_add301), .flags(fl_c_pt2_add301)
     );
@@ -4703,7 +4706,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add306: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add306 = pt2_mul304 + pt2_mul305; friction: t1_add182 = t1_mul180 + t1_mul181)
     logic [W-1:0] c_pt2_add306;
     logic [2:0] fl_c_pt2_add306;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add306 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add306 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul304), .b(dl_c_pt2_mul305), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(c_pt2_add306), .flags(fl_c_pt2_add306)
     );
@@ -4717,7 +4720,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add312: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add312 = pt2_mul310 + pt2_mul311; friction: t1_add188 = t1_mul186 + t1_mul187)
     logic [W-1:0] c_pt2_add312;
     logic [2:0] fl_c_pt2_add312;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add312 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add312 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul310), .b(dl_c_pt2_mul311), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(c_pt2_add312), .flags(fl_c_pt2_add312)
     );
@@ -4731,7 +4734,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add317: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add317 = pt2_mul315 + pt2_mul316; friction: t1_add193 = t1_mul191 + t1_mul192)
     logic [W-1:0] c_pt2_add317;
     logic [2:0] fl_c_pt2_add317;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add317 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add317 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul315), .b(dl_c_pt2_mul316), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(c_pt2_add317), .flags(fl_c_pt2_add317)
     );
@@ -4745,7 +4748,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add303: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add303 = pt2_add301 + pt2_mul302; friction: t1_add179 = t1_add177 + t1_mul178)
     logic [W-1:0] c_pt2_add303;
     logic [2:0] fl_c_pt2_add303;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add303 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add303 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add301), .b(dl_c_pt2_mul302), .sub(1'b0),
         .out_valid(op_valid_nc[200]), .y(c_pt2_add303), .flags(fl_c_pt2_add303)
     );
@@ -4759,7 +4762,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add308: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add308 = pt2_add306 + pt2_mul307; friction: t1_add184 = t1_add182 + t1_mul183)
     logic [W-1:0] c_pt2_add308;
     logic [2:0] fl_c_pt2_add308;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add308 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add308 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add306), .b(dl_c_pt2_mul307), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(c_pt2_add308), .flags(fl_c_pt2_add308)
     );
@@ -4773,7 +4776,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add314: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add314 = pt2_add312 + pt2_mul313; friction: t1_add190 = t1_add188 + t1_mul189)
     logic [W-1:0] c_pt2_add314;
     logic [2:0] fl_c_pt2_add314;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add314 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add314 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add312), .b(dl_c_pt2_mul313), .sub(1'b0),
         .out_valid(op_valid_nc[211]), .y(c_pt2_add314), .flags(fl_c_pt2_add314)
     );
@@ -4787,7 +4790,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add319: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add319 = pt2_add317 + pt2_mul318; friction: t1_add195 = t1_add193 + t1_mul194)
     logic [W-1:0] c_pt2_add319;
     logic [2:0] fl_c_pt2_add319;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add319 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add319 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add317), .b(dl_c_pt2_mul318), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(c_pt2_add319), .flags(fl_c_pt2_add319)
     );
@@ -4801,7 +4804,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub309: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub309 = pt2_add303 - pt2_add308; friction: t1_sub185 = t1_add179 - t1_add184)
     logic [W-1:0] c_pt2_sub309;
     logic [2:0] fl_c_pt2_sub309;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub309 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub309 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add303), .b(dl_c_pt2_add308), .sub(1'b1),
         .out_valid(op_valid_nc[206]), .y(c_pt2_sub309), .flags(fl_c_pt2_sub309)
     );
@@ -4815,7 +4818,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub320: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub320 = pt2_add314 - pt2_add319; friction: t1_sub196 = t1_add190 - t1_add195)
     logic [W-1:0] c_pt2_sub320;
     logic [2:0] fl_c_pt2_sub320;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub320 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub320 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add314), .b(dl_c_pt2_add319), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(c_pt2_sub320), .flags(fl_c_pt2_sub320)
     );
@@ -4829,7 +4832,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub309 + pt2_sub320; friction: t1_u = t1_sub185 + t1_sub196)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_c_pt2_sub309), .b(dl_c_pt2_sub320), .sub(1'b0),
         .out_valid(op_valid_nc[218]), .y(c_pt2_vrel), .flags(fl_c_pt2_vrel)
     );
@@ -4850,7 +4853,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add322: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add322 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add322;
     logic [2:0] fl_c_pt2_add322;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add322 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add322 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[114]), .a(dl_c_pt2_vrel), .b(dl_in_b2[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(c_pt2_add322), .flags(fl_c_pt2_add322)
     );
@@ -4884,7 +4887,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt2_add325_a = kind_q[121] ? dl_in_lamT1[0*W +: W] : dl_c_pt2_lam_kept[0*W +: W];
     logic [W-1:0] c_pt2_add325;
     logic [2:0] fl_c_pt2_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(c_pt2_add325_a), .b(dl_c_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[222]), .y(c_pt2_add325), .flags(fl_c_pt2_add325)
     );
@@ -4917,7 +4920,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2)
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[126]), .a(dl_c_pt2_lam_new_max), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[224]), .y(c_pt2_delta), .flags(fl_c_pt2_delta)
     );
@@ -5120,7 +5123,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt2_add338_b = kind_q[133] ? dl_in_lamT1[1*W +: W] : dl_c_pt2_mul335;
     logic [W-1:0] c_pt2_add338;
     logic [2:0] fl_c_pt2_add338;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add338 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add338 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(c_pt2_add338_a), .b(c_pt2_add338_b), .sub(kind_q[133]),
         .out_valid(op_valid_nc[234]), .y(c_pt2_add338), .flags(fl_c_pt2_add338)
     );
@@ -5134,7 +5137,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add339: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add339 = pt1_vA_y + pt2_mul336)
     logic [W-1:0] c_pt2_add339;
     logic [2:0] fl_c_pt2_add339;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add339 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add339 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_y[1*W +: W]), .b(dl_c_pt2_mul336), .sub(1'b0),
         .out_valid(op_valid_nc[235]), .y(c_pt2_add339), .flags(fl_c_pt2_add339)
     );
@@ -5148,7 +5151,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add340: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add340 = pt1_vA_z + pt2_mul337)
     logic [W-1:0] c_pt2_add340;
     logic [2:0] fl_c_pt2_add340;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add340 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add340 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_z[1*W +: W]), .b(dl_c_pt2_mul337), .sub(1'b0),
         .out_valid(op_valid_nc[236]), .y(c_pt2_add340), .flags(fl_c_pt2_add340)
     );
@@ -5162,7 +5165,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add347: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add347 = pt1_wA_x + pt2_mul344)
     logic [W-1:0] c_pt2_add347;
     logic [2:0] fl_c_pt2_add347;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add347 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add347 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_x[1*W +: W]), .b(dl_c_pt2_mul344), .sub(1'b0),
         .out_valid(op_valid_nc[240]), .y(c_pt2_add347), .flags(fl_c_pt2_add347)
     );
@@ -5176,7 +5179,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add348: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add348 = pt1_wA_y + pt2_mul345)
     logic [W-1:0] c_pt2_add348;
     logic [2:0] fl_c_pt2_add348;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add348 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add348 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_y[1*W +: W]), .b(dl_c_pt2_mul345), .sub(1'b0),
         .out_valid(op_valid_nc[241]), .y(c_pt2_add348), .flags(fl_c_pt2_add348)
     );
@@ -5190,7 +5193,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_add349: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add349 = pt1_wA_z + pt2_mul346)
     logic [W-1:0] c_pt2_add349;
     logic [2:0] fl_c_pt2_add349;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add349 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add349 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_z[1*W +: W]), .b(dl_c_pt2_mul346), .sub(1'b0),
         .out_valid(op_valid_nc[242]), .y(c_pt2_add349), .flags(fl_c_pt2_add349)
     );
@@ -5204,7 +5207,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub356: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub356 = pt1_vB_x - pt2_mul353)
     logic [W-1:0] c_pt2_sub356;
     logic [2:0] fl_c_pt2_sub356;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub356 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub356 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_x[1*W +: W]), .b(dl_c_pt2_mul353), .sub(1'b1),
         .out_valid(op_valid_nc[246]), .y(c_pt2_sub356), .flags(fl_c_pt2_sub356)
     );
@@ -5218,7 +5221,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub357: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub357 = pt1_vB_y - pt2_mul354)
     logic [W-1:0] c_pt2_sub357;
     logic [2:0] fl_c_pt2_sub357;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub357 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub357 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_y[1*W +: W]), .b(dl_c_pt2_mul354), .sub(1'b1),
         .out_valid(op_valid_nc[247]), .y(c_pt2_sub357), .flags(fl_c_pt2_sub357)
     );
@@ -5232,7 +5235,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub358: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub358 = pt1_vB_z - pt2_mul355)
     logic [W-1:0] c_pt2_sub358;
     logic [2:0] fl_c_pt2_sub358;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub358 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub358 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_z[1*W +: W]), .b(dl_c_pt2_mul355), .sub(1'b1),
         .out_valid(op_valid_nc[248]), .y(c_pt2_sub358), .flags(fl_c_pt2_sub358)
     );
@@ -5246,7 +5249,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub365: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub365 = pt1_wB_x - pt2_mul362)
     logic [W-1:0] c_pt2_sub365;
     logic [2:0] fl_c_pt2_sub365;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub365 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub365 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_x[1*W +: W]), .b(dl_c_pt2_mul362), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(c_pt2_sub365), .flags(fl_c_pt2_sub365)
     );
@@ -5260,7 +5263,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub366: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub366 = pt1_wB_y - pt2_mul363)
     logic [W-1:0] c_pt2_sub366;
     logic [2:0] fl_c_pt2_sub366;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub366 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub366 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_y[1*W +: W]), .b(dl_c_pt2_mul363), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(c_pt2_sub366), .flags(fl_c_pt2_sub366)
     );
@@ -5274,7 +5277,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt2_sub367: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub367 = pt1_wB_z - pt2_mul364)
     logic [W-1:0] c_pt2_sub367;
     logic [2:0] fl_c_pt2_sub367;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub367 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub367 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_z[1*W +: W]), .b(dl_c_pt2_mul364), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(c_pt2_sub367), .flags(fl_c_pt2_sub367)
     );
@@ -5597,7 +5600,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add398_b = kind_q[140] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_mul397;
     logic [W-1:0] c_pt3_add398;
     logic [2:0] fl_c_pt3_add398;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add398 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add398 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_c_pt3_mul396), .b(c_pt3_add398_b), .sub(1'b0),
         .out_valid(op_valid_nc[281]), .y(c_pt3_add398), .flags(fl_c_pt3_add398)
     );
@@ -5615,7 +5618,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add403_b = kind_q[140] ? dl_c_pt3_mul397 : dl_c_pt3_mul402;
     logic [W-1:0] c_pt3_add403;
     logic [2:0] fl_c_pt3_add403;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add403 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add403 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add403_a), .b(c_pt3_add403_b), .sub(1'b0),
         .out_valid(op_valid_nc[286]), .y(c_pt3_add403), .flags(fl_c_pt3_add403)
     );
@@ -5633,7 +5636,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add409_b = kind_q[140] ? dl_c_pt3_mul401 : dl_c_pt3_mul408[0*W +: W];
     logic [W-1:0] c_pt3_add409;
     logic [2:0] fl_c_pt3_add409;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add409 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add409 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add409_a), .b(c_pt3_add409_b), .sub(1'b0),
         .out_valid(op_valid_nc[292]), .y(c_pt3_add409), .flags(fl_c_pt3_add409)
     );
@@ -5651,7 +5654,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add414_b = kind_q[140] ? dl_c_pt3_mul402 : dl_c_pt3_mul413[0*W +: W];
     logic [W-1:0] c_pt3_add414;
     logic [2:0] fl_c_pt3_add414;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add414 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add414 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add414_a), .b(c_pt3_add414_b), .sub(1'b0),
         .out_valid(op_valid_nc[297]), .y(c_pt3_add414), .flags(fl_c_pt3_add414)
     );
@@ -5695,7 +5698,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add400_a = kind_q[144] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt3_add398;
     logic [W-1:0] c_pt3_add400;
     logic [2:0] fl_c_pt3_add400;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add400 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add400 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add400_a), .b(dl_c_pt3_mul399), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(c_pt3_add400), .flags(fl_c_pt3_add400)
     );
@@ -5711,7 +5714,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add405_a = kind_q[144] ? dl_f_t0_wA_z[1*W +: W] : dl_c_pt3_add403;
     logic [W-1:0] c_pt3_add405;
     logic [2:0] fl_c_pt3_add405;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add405 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add405 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add405_a), .b(dl_c_pt3_mul404), .sub(1'b0),
         .out_valid(op_valid_nc[288]), .y(c_pt3_add405), .flags(fl_c_pt3_add405)
     );
@@ -5729,7 +5732,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add411_b = kind_q[144] ? dl_c_pt3_mul407[1*W +: W] : dl_c_pt3_mul410[0*W +: W];
     logic [W-1:0] c_pt3_add411;
     logic [2:0] fl_c_pt3_add411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add411 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add411_a), .b(c_pt3_add411_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[294]), .y(c_pt3_add411), .flags(fl_c_pt3_add411)
     );
@@ -5747,7 +5750,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add416_b = kind_q[144] ? dl_c_pt3_mul408[1*W +: W] : dl_c_pt3_mul415[0*W +: W];
     logic [W-1:0] c_pt3_add416;
     logic [2:0] fl_c_pt3_add416;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add416 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add416 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add416_a), .b(c_pt3_add416_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[299]), .y(c_pt3_add416), .flags(fl_c_pt3_add416)
     );
@@ -5789,7 +5792,7 @@ module pgs_shared_pipe_mu_soft #(
     // f_spin_add257: fp_add @147/147/147 -> @151/151/151 (friction: spin_add257 = spin_mul255 + spin_mul256)
     logic [W-1:0] f_spin_add257;
     logic [2:0] fl_f_spin_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[147]), .a(dl_f_spin_mul255), .b(dl_f_spin_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[341]), .y(f_spin_add257), .flags(fl_f_spin_add257)
     );
@@ -5835,7 +5838,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_sub406_b = kind_q[148] ? dl_c_pt3_mul410[1*W +: W] : dl_c_pt3_add405;
     logic [W-1:0] c_pt3_sub406;
     logic [2:0] fl_c_pt3_sub406;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub406 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub406 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub406_a), .b(c_pt3_sub406_b), .sub(1'b1),
         .out_valid(op_valid_nc[289]), .y(c_pt3_sub406), .flags(fl_c_pt3_sub406)
     );
@@ -5853,7 +5856,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_sub417_b = kind_q[148] ? dl_c_pt3_mul412[1*W +: W] : dl_c_pt3_add416;
     logic [W-1:0] c_pt3_sub417;
     logic [2:0] fl_c_pt3_sub417;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub417 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub417 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub417_a), .b(c_pt3_sub417_b), .sub(1'b1),
         .out_valid(op_valid_nc[300]), .y(c_pt3_sub417), .flags(fl_c_pt3_sub417)
     );
@@ -5885,7 +5888,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_vrel_b = kind_q[152] ? dl_c_pt3_mul413[1*W +: W] : dl_c_pt3_sub417;
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(c_pt3_vrel_a), .b(c_pt3_vrel_b), .sub(kind_q[152]),
         .out_valid(op_valid_nc[301]), .y(c_pt3_vrel), .flags(fl_c_pt3_vrel)
     );
@@ -5924,7 +5927,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add419_b = kind_q[156] ? dl_c_pt3_mul415[1*W +: W] : dl_in_b3[1*W +: W];
     logic [W-1:0] c_pt3_add419;
     logic [2:0] fl_c_pt3_add419;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add419 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add419 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(c_pt3_add419_a), .b(c_pt3_add419_b), .sub(kind_q[156]),
         .out_valid(op_valid_nc[302]), .y(c_pt3_add419), .flags(fl_c_pt3_add419)
     );
@@ -5952,7 +5955,7 @@ module pgs_shared_pipe_mu_soft #(
     // f_spin_add269: fp_add @159/159/159 -> @163/163/163 (friction: spin_add269 = spin_mul267 + spin_mul268)
     logic [W-1:0] f_spin_add269;
     logic [2:0] fl_f_spin_add269;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add269 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add269 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[159]), .a(dl_f_spin_mul267), .b(dl_f_spin_mul268), .sub(1'b0),
         .out_valid(op_valid_nc[345]), .y(f_spin_add269), .flags(fl_f_spin_add269)
     );
@@ -6007,7 +6010,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add422_a = kind_q[163] ? dl_f_spin_add257 : dl_c_pt3_lam_kept[0*W +: W];
     logic [W-1:0] c_pt3_add422;
     logic [2:0] fl_c_pt3_add422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add422 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(c_pt3_add422_a), .b(dl_c_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[305]), .y(c_pt3_add422), .flags(fl_c_pt3_add422)
     );
@@ -6021,7 +6024,7 @@ module pgs_shared_pipe_mu_soft #(
     // f_spin_add271: fp_add @163/163/163 -> @167/167/167 (friction: spin_add271 = spin_add269 + spin_mul270)
     logic [W-1:0] f_spin_add271;
     logic [2:0] fl_f_spin_add271;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add271 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add271 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[163]), .a(dl_f_spin_add269), .b(dl_f_spin_mul270), .sub(1'b0),
         .out_valid(op_valid_nc[347]), .y(f_spin_add271), .flags(fl_f_spin_add271)
     );
@@ -6080,7 +6083,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[168]), .a(dl_c_pt3_lam_new_max), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[307]), .y(c_pt3_delta), .flags(fl_c_pt3_delta)
     );
@@ -6288,7 +6291,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add435_a = kind_q[175] ? dl_f_t1_wA_x[1*W +: W] : dl_c_pt2_vA_x[1*W +: W];
     logic [W-1:0] c_pt3_add435;
     logic [2:0] fl_c_pt3_add435;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add435 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add435 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add435_a), .b(dl_c_pt3_mul432), .sub(kind_q[175]),
         .out_valid(op_valid_nc[317]), .y(c_pt3_add435), .flags(fl_c_pt3_add435)
     );
@@ -6304,7 +6307,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add436_a = kind_q[175] ? dl_f_t1_wA_y[1*W +: W] : dl_c_pt2_vA_y[1*W +: W];
     logic [W-1:0] c_pt3_add436;
     logic [2:0] fl_c_pt3_add436;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add436 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add436 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add436_a), .b(dl_c_pt3_mul433), .sub(kind_q[175]),
         .out_valid(op_valid_nc[318]), .y(c_pt3_add436), .flags(fl_c_pt3_add436)
     );
@@ -6320,7 +6323,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add437_a = kind_q[175] ? dl_f_t1_wA_z[1*W +: W] : dl_c_pt2_vA_z[1*W +: W];
     logic [W-1:0] c_pt3_add437;
     logic [2:0] fl_c_pt3_add437;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add437 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add437 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add437_a), .b(dl_c_pt3_mul434), .sub(kind_q[175]),
         .out_valid(op_valid_nc[319]), .y(c_pt3_add437), .flags(fl_c_pt3_add437)
     );
@@ -6336,7 +6339,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add444_a = kind_q[175] ? dl_f_t1_wB_x[1*W +: W] : dl_c_pt2_wA_x[1*W +: W];
     logic [W-1:0] c_pt3_add444;
     logic [2:0] fl_c_pt3_add444;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add444 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add444 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add444_a), .b(dl_c_pt3_mul441), .sub(kind_q[175]),
         .out_valid(op_valid_nc[323]), .y(c_pt3_add444), .flags(fl_c_pt3_add444)
     );
@@ -6352,7 +6355,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add445_a = kind_q[175] ? dl_f_t1_wB_y[1*W +: W] : dl_c_pt2_wA_y[1*W +: W];
     logic [W-1:0] c_pt3_add445;
     logic [2:0] fl_c_pt3_add445;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add445 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add445 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add445_a), .b(dl_c_pt3_mul442), .sub(kind_q[175]),
         .out_valid(op_valid_nc[324]), .y(c_pt3_add445), .flags(fl_c_pt3_add445)
     );
@@ -6368,7 +6371,7 @@ module pgs_shared_pipe_mu_soft #(
     assign c_pt3_add446_a = kind_q[175] ? dl_f_t1_wB_z[1*W +: W] : dl_c_pt2_wA_z[1*W +: W];
     logic [W-1:0] c_pt3_add446;
     logic [2:0] fl_c_pt3_add446;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add446 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add446 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add446_a), .b(dl_c_pt3_mul443), .sub(kind_q[175]),
         .out_valid(op_valid_nc[325]), .y(c_pt3_add446), .flags(fl_c_pt3_add446)
     );
@@ -6382,7 +6385,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_sub453: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub453 = pt2_vB_x - pt3_mul450)
     logic [W-1:0] c_pt3_sub453;
     logic [2:0] fl_c_pt3_sub453;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub453 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub453 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_x[1*W +: W]), .b(dl_c_pt3_mul450), .sub(1'b1),
         .out_valid(op_valid_nc[329]), .y(c_pt3_sub453), .flags(fl_c_pt3_sub453)
     );
@@ -6396,7 +6399,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_sub454: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub454 = pt2_vB_y - pt3_mul451)
     logic [W-1:0] c_pt3_sub454;
     logic [2:0] fl_c_pt3_sub454;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub454 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub454 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_y[1*W +: W]), .b(dl_c_pt3_mul451), .sub(1'b1),
         .out_valid(op_valid_nc[330]), .y(c_pt3_sub454), .flags(fl_c_pt3_sub454)
     );
@@ -6410,7 +6413,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_sub455: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub455 = pt2_vB_z - pt3_mul452)
     logic [W-1:0] c_pt3_sub455;
     logic [2:0] fl_c_pt3_sub455;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub455 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub455 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_z[1*W +: W]), .b(dl_c_pt3_mul452), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(c_pt3_sub455), .flags(fl_c_pt3_sub455)
     );
@@ -6424,7 +6427,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_sub462: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub462 = pt2_wB_x - pt3_mul459)
     logic [W-1:0] c_pt3_sub462;
     logic [2:0] fl_c_pt3_sub462;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub462 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub462 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_x[1*W +: W]), .b(dl_c_pt3_mul459), .sub(1'b1),
         .out_valid(op_valid_nc[335]), .y(c_pt3_sub462), .flags(fl_c_pt3_sub462)
     );
@@ -6438,7 +6441,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_sub463: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub463 = pt2_wB_y - pt3_mul460)
     logic [W-1:0] c_pt3_sub463;
     logic [2:0] fl_c_pt3_sub463;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub463 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub463 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_y[1*W +: W]), .b(dl_c_pt3_mul460), .sub(1'b1),
         .out_valid(op_valid_nc[336]), .y(c_pt3_sub463), .flags(fl_c_pt3_sub463)
     );
@@ -6452,7 +6455,7 @@ module pgs_shared_pipe_mu_soft #(
     // c_pt3_sub464: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub464 = pt2_wB_z - pt3_mul461)
     logic [W-1:0] c_pt3_sub464;
     logic [2:0] fl_c_pt3_sub464;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub464 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub464 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_z[1*W +: W]), .b(dl_c_pt3_mul461), .sub(1'b1),
         .out_valid(op_valid_nc[337]), .y(c_pt3_sub464), .flags(fl_c_pt3_sub464)
     );

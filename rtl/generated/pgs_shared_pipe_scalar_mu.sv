@@ -36,6 +36,9 @@ module pgs_shared_pipe_scalar_mu #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 51,
     localparam int N_OUT    = 16,
@@ -576,7 +579,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_rA_x_b = kind_q[0] ? dl_in_lam1[2*W +: W] : dl_in_xA_x;
     logic [W-1:0] c_pt0_rA_x;
     logic [2:0] fl_c_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_x_a), .b(c_pt0_rA_x_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[6]), .y(c_pt0_rA_x), .flags(fl_c_pt0_rA_x)
     );
@@ -594,7 +597,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_rA_y_b = kind_q[0] ? dl_in_lam3[2*W +: W] : dl_in_xA_y;
     logic [W-1:0] c_pt0_rA_y;
     logic [2:0] fl_c_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_y_a), .b(c_pt0_rA_y_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[7]), .y(c_pt0_rA_y), .flags(fl_c_pt0_rA_y)
     );
@@ -608,7 +611,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rA_z = p0_z - xA_z; friction: rA_z = c_z - xA_z)
     logic [W-1:0] c_pt0_rA_z;
     logic [2:0] fl_c_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(c_pt0_rA_z), .flags(fl_c_pt0_rA_z)
     );
@@ -624,7 +627,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_rB_x_b = kind_q[0] ? dl_in_xA_x : dl_in_xB_x;
     logic [W-1:0] c_pt0_rB_x;
     logic [2:0] fl_c_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x__c_x), .b(c_pt0_rB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(c_pt0_rB_x), .flags(fl_c_pt0_rB_x)
     );
@@ -640,7 +643,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_rB_y_b = kind_q[0] ? dl_in_xA_y : dl_in_xB_y;
     logic [W-1:0] c_pt0_rB_y;
     logic [2:0] fl_c_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y__c_y), .b(c_pt0_rB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(c_pt0_rB_y), .flags(fl_c_pt0_rB_y)
     );
@@ -654,7 +657,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rB_z = p0_z - xB_z; friction: rB_z = c_z - xB_z)
     logic [W-1:0] c_pt0_rB_z;
     logic [2:0] fl_c_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(c_pt0_rB_z), .flags(fl_c_pt0_rB_z)
     );
@@ -764,7 +767,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_x = p1_x - xA_x)
     logic [W-1:0] c_pt1_rA_x;
     logic [2:0] fl_c_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_x__t0_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(c_pt1_rA_x), .flags(fl_c_pt1_rA_x)
     );
@@ -778,7 +781,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_y = p1_y - xA_y)
     logic [W-1:0] c_pt1_rA_y;
     logic [2:0] fl_c_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_y__t0_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(c_pt1_rA_y), .flags(fl_c_pt1_rA_y)
     );
@@ -792,7 +795,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_z = p1_z - xA_z)
     logic [W-1:0] c_pt1_rA_z;
     logic [2:0] fl_c_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(c_pt1_rA_z), .flags(fl_c_pt1_rA_z)
     );
@@ -808,7 +811,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_rB_x_a = kind_q[0] ? dl_in_p0_x__c_x : dl_in_p1_x__t0_x[0*W +: W];
     logic [W-1:0] c_pt1_rB_x;
     logic [2:0] fl_c_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_x_a), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(c_pt1_rB_x), .flags(fl_c_pt1_rB_x)
     );
@@ -824,7 +827,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_rB_y_a = kind_q[0] ? dl_in_p0_y__c_y : dl_in_p1_y__t0_y[0*W +: W];
     logic [W-1:0] c_pt1_rB_y;
     logic [2:0] fl_c_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_y_a), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(c_pt1_rB_y), .flags(fl_c_pt1_rB_y)
     );
@@ -838,7 +841,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rB_z = p1_z - xB_z)
     logic [W-1:0] c_pt1_rB_z;
     logic [2:0] fl_c_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z__t0_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(c_pt1_rB_z), .flags(fl_c_pt1_rB_z)
     );
@@ -852,7 +855,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_x = p2_x - xA_x)
     logic [W-1:0] c_pt2_rA_x;
     logic [2:0] fl_c_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(c_pt2_rA_x), .flags(fl_c_pt2_rA_x)
     );
@@ -866,7 +869,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_y = p2_y - xA_y)
     logic [W-1:0] c_pt2_rA_y;
     logic [2:0] fl_c_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(c_pt2_rA_y), .flags(fl_c_pt2_rA_y)
     );
@@ -880,7 +883,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_z = p2_z - xA_z)
     logic [W-1:0] c_pt2_rA_z;
     logic [2:0] fl_c_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(c_pt2_rA_z), .flags(fl_c_pt2_rA_z)
     );
@@ -894,7 +897,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_x = p2_x - xB_x)
     logic [W-1:0] c_pt2_rB_x;
     logic [2:0] fl_c_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x__t1_x[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[182]), .y(c_pt2_rB_x), .flags(fl_c_pt2_rB_x)
     );
@@ -908,7 +911,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_y = p2_y - xB_y)
     logic [W-1:0] c_pt2_rB_y;
     logic [2:0] fl_c_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y__t1_y[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(c_pt2_rB_y), .flags(fl_c_pt2_rB_y)
     );
@@ -922,7 +925,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_z = p2_z - xB_z)
     logic [W-1:0] c_pt2_rB_z;
     logic [2:0] fl_c_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z__t1_z[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(c_pt2_rB_z), .flags(fl_c_pt2_rB_z)
     );
@@ -936,7 +939,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_x = p3_x - xA_x)
     logic [W-1:0] c_pt3_rA_x;
     logic [2:0] fl_c_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(c_pt3_rA_x), .flags(fl_c_pt3_rA_x)
     );
@@ -950,7 +953,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_y = p3_y - xA_y)
     logic [W-1:0] c_pt3_rA_y;
     logic [2:0] fl_c_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(c_pt3_rA_y), .flags(fl_c_pt3_rA_y)
     );
@@ -964,7 +967,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_z = p3_z - xA_z)
     logic [W-1:0] c_pt3_rA_z;
     logic [2:0] fl_c_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(c_pt3_rA_z), .flags(fl_c_pt3_rA_z)
     );
@@ -978,7 +981,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_x = p3_x - xB_x)
     logic [W-1:0] c_pt3_rB_x;
     logic [2:0] fl_c_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x__f_jac_inv0[0*W +: W]), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[264]), .y(c_pt3_rB_x), .flags(fl_c_pt3_rB_x)
     );
@@ -992,7 +995,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_y = p3_y - xB_y)
     logic [W-1:0] c_pt3_rB_y;
     logic [2:0] fl_c_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y__f_jac_inv1[0*W +: W]), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[265]), .y(c_pt3_rB_y), .flags(fl_c_pt3_rB_y)
     );
@@ -1006,7 +1009,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_z = p3_z - xB_z)
     logic [W-1:0] c_pt3_rB_z;
     logic [2:0] fl_c_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z__mu[0*W +: W]), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(c_pt3_rB_z), .flags(fl_c_pt3_rB_z)
     );
@@ -1020,7 +1023,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add83: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add83 = pt0_mul81 + pt0_mul82; friction: t0_add76 = t0_mul74 + t0_mul75)
     logic [W-1:0] c_pt0_add83;
     logic [2:0] fl_c_pt0_add83;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add83 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add83 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul81), .b(dl_c_pt0_mul82), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(c_pt0_add83), .flags(fl_c_pt0_add83)
     );
@@ -1034,7 +1037,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add88: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add88 = pt0_mul86 + pt0_mul87; friction: t0_add81 = t0_mul79 + t0_mul80)
     logic [W-1:0] c_pt0_add88;
     logic [2:0] fl_c_pt0_add88;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add88 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add88 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_c_pt0_mul86), .b(dl_c_pt0_mul87), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(c_pt0_add88), .flags(fl_c_pt0_add88)
     );
@@ -1820,7 +1823,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_cA_x_b = kind_q[7] ? dl_c_pt0_rA_y[1*W +: W] : dl_c_pt0_mul61;
     logic [W-1:0] c_pt0_cA_x;
     logic [2:0] fl_c_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_x_a), .b(c_pt0_cA_x_b), .sub(!kind_q[7]),
         .out_valid(op_valid_nc[11]), .y(c_pt0_cA_x), .flags(fl_c_pt0_cA_x)
     );
@@ -1836,7 +1839,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_cA_y_b = kind_q[7] ? dl_c_pt0_mul76 : dl_c_pt0_mul64;
     logic [W-1:0] c_pt0_cA_y;
     logic [2:0] fl_c_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul63), .b(c_pt0_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(c_pt0_cA_y), .flags(fl_c_pt0_cA_y)
     );
@@ -1854,7 +1857,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_cA_z_b = kind_q[7] ? dl_c_pt0_mul64 : dl_c_pt0_mul67;
     logic [W-1:0] c_pt0_cA_z;
     logic [2:0] fl_c_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_z_a), .b(c_pt0_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(c_pt0_cA_z), .flags(fl_c_pt0_cA_z)
     );
@@ -1870,7 +1873,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_cB_x_b = kind_q[7] ? dl_c_pt0_mul61 : dl_c_pt0_mul73;
     logic [W-1:0] c_pt0_cB_x;
     logic [2:0] fl_c_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul72), .b(c_pt0_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(c_pt0_cB_x), .flags(fl_c_pt0_cB_x)
     );
@@ -1886,7 +1889,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_cB_y_b = kind_q[7] ? dl_c_pt1_mul172 : dl_c_pt0_mul76;
     logic [W-1:0] c_pt0_cB_y;
     logic [2:0] fl_c_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul75), .b(c_pt0_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(c_pt0_cB_y), .flags(fl_c_pt0_cB_y)
     );
@@ -1900,7 +1903,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_z = pt0_mul78 - pt0_mul79; friction: t0_cA_z = t0_mul62 - t0_mul63)
     logic [W-1:0] c_pt0_cB_z;
     logic [2:0] fl_c_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_mul78), .b(dl_c_pt0_mul79), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(c_pt0_cB_z), .flags(fl_c_pt0_cB_z)
     );
@@ -1914,7 +1917,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add85: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add85 = pt0_add83 + pt0_mul84; friction: t0_add78 = t0_add76 + t0_mul77)
     logic [W-1:0] c_pt0_add85;
     logic [2:0] fl_c_pt0_add85;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add85 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add85 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add83), .b(dl_c_pt0_mul84), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(c_pt0_add85), .flags(fl_c_pt0_add85)
     );
@@ -1928,7 +1931,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add90: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add90 = pt0_add88 + pt0_mul89; friction: t0_add83 = t0_add81 + t0_mul82)
     logic [W-1:0] c_pt0_add90;
     logic [2:0] fl_c_pt0_add90;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add90 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add90 (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt0_add88), .b(dl_c_pt0_mul89), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(c_pt0_add90), .flags(fl_c_pt0_add90)
     );
@@ -1946,7 +1949,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_cA_x_b = kind_q[7] ? dl_c_pt0_mul67 : dl_c_pt1_mul157;
     logic [W-1:0] c_pt1_cA_x;
     logic [2:0] fl_c_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_x_a), .b(c_pt1_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(c_pt1_cA_x), .flags(fl_c_pt1_cA_x)
     );
@@ -1964,7 +1967,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_cA_y_b = kind_q[7] ? dl_c_pt1_mul157 : dl_c_pt1_mul160;
     logic [W-1:0] c_pt1_cA_y;
     logic [2:0] fl_c_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_y_a), .b(c_pt1_cA_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[96]), .y(c_pt1_cA_y), .flags(fl_c_pt1_cA_y)
     );
@@ -1982,7 +1985,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_cA_z_b = kind_q[7] ? dl_c_pt1_mul160 : dl_c_pt1_mul163;
     logic [W-1:0] c_pt1_cA_z;
     logic [2:0] fl_c_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cA_z_a), .b(c_pt1_cA_z_b), .sub(1'b1),
         .out_valid(op_valid_nc[99]), .y(c_pt1_cA_z), .flags(fl_c_pt1_cA_z)
     );
@@ -1998,7 +2001,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_cB_x_b = kind_q[7] ? dl_c_pt0_mul73 : dl_c_pt1_mul169;
     logic [W-1:0] c_pt1_cB_x;
     logic [2:0] fl_c_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul168), .b(c_pt1_cB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(c_pt1_cB_x), .flags(fl_c_pt1_cB_x)
     );
@@ -2016,7 +2019,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_cB_y_b = kind_q[7] ? dl_c_pt1_mul163 : dl_c_pt1_mul172;
     logic [W-1:0] c_pt1_cB_y;
     logic [2:0] fl_c_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt1_cB_y_a), .b(c_pt1_cB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[108]), .y(c_pt1_cB_y), .flags(fl_c_pt1_cB_y)
     );
@@ -2030,7 +2033,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_z = pt1_mul174 - pt1_mul175; friction: t0_cB_z = t0_mul71 - t0_mul72)
     logic [W-1:0] c_pt1_cB_z;
     logic [2:0] fl_c_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_c_pt1_mul174), .b(dl_c_pt1_mul175), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(c_pt1_cB_z), .flags(fl_c_pt1_cB_z)
     );
@@ -2048,7 +2051,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt2_cA_x_b = kind_q[7] ? dl_c_pt1_mul171 : dl_c_pt2_mul253[0*W +: W];
     logic [W-1:0] c_pt2_cA_x;
     logic [2:0] fl_c_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt2_cA_x_a), .b(c_pt2_cA_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[175]), .y(c_pt2_cA_x), .flags(fl_c_pt2_cA_x)
     );
@@ -2062,7 +2065,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_y = pt2_mul255 - pt2_mul256)
     logic [W-1:0] c_pt2_cA_y;
     logic [2:0] fl_c_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul255[0*W +: W]), .b(dl_c_pt2_mul256[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[178]), .y(c_pt2_cA_y), .flags(fl_c_pt2_cA_y)
     );
@@ -2076,7 +2079,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_z = pt2_mul258 - pt2_mul259)
     logic [W-1:0] c_pt2_cA_z;
     logic [2:0] fl_c_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul258[0*W +: W]), .b(dl_c_pt2_mul259[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[181]), .y(c_pt2_cA_z), .flags(fl_c_pt2_cA_z)
     );
@@ -2090,7 +2093,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_x = pt2_mul264 - pt2_mul265)
     logic [W-1:0] c_pt2_cB_x;
     logic [2:0] fl_c_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul264), .b(dl_c_pt2_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[187]), .y(c_pt2_cB_x), .flags(fl_c_pt2_cB_x)
     );
@@ -2104,7 +2107,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_y = pt2_mul267 - pt2_mul268)
     logic [W-1:0] c_pt2_cB_y;
     logic [2:0] fl_c_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul267), .b(dl_c_pt2_mul268), .sub(1'b1),
         .out_valid(op_valid_nc[190]), .y(c_pt2_cB_y), .flags(fl_c_pt2_cB_y)
     );
@@ -2118,7 +2121,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_z = pt2_mul270 - pt2_mul271)
     logic [W-1:0] c_pt2_cB_z;
     logic [2:0] fl_c_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul270), .b(dl_c_pt2_mul271), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(c_pt2_cB_z), .flags(fl_c_pt2_cB_z)
     );
@@ -2132,7 +2135,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_x = pt3_mul348 - pt3_mul349)
     logic [W-1:0] c_pt3_cA_x;
     logic [2:0] fl_c_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul348), .b(dl_c_pt3_mul349), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(c_pt3_cA_x), .flags(fl_c_pt3_cA_x)
     );
@@ -2146,7 +2149,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_y = pt3_mul351 - pt3_mul352)
     logic [W-1:0] c_pt3_cA_y;
     logic [2:0] fl_c_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul351), .b(dl_c_pt3_mul352), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(c_pt3_cA_y), .flags(fl_c_pt3_cA_y)
     );
@@ -2160,7 +2163,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_z = pt3_mul354 - pt3_mul355)
     logic [W-1:0] c_pt3_cA_z;
     logic [2:0] fl_c_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul354), .b(dl_c_pt3_mul355), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(c_pt3_cA_z), .flags(fl_c_pt3_cA_z)
     );
@@ -2174,7 +2177,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_x = pt3_mul360 - pt3_mul361)
     logic [W-1:0] c_pt3_cB_x;
     logic [2:0] fl_c_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul360), .b(dl_c_pt3_mul361), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(c_pt3_cB_x), .flags(fl_c_pt3_cB_x)
     );
@@ -2188,7 +2191,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_y = pt3_mul363 - pt3_mul364)
     logic [W-1:0] c_pt3_cB_y;
     logic [2:0] fl_c_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul363), .b(dl_c_pt3_mul364), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(c_pt3_cB_y), .flags(fl_c_pt3_cB_y)
     );
@@ -2202,7 +2205,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_z = pt3_mul366 - pt3_mul367)
     logic [W-1:0] c_pt3_cB_z;
     logic [2:0] fl_c_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul366), .b(dl_c_pt3_mul367), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(c_pt3_cB_z), .flags(fl_c_pt3_cB_z)
     );
@@ -2216,7 +2219,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub91: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub91 = pt0_add85 - pt0_add90; friction: t0_sub84 = t0_add78 - t0_add83)
     logic [W-1:0] c_pt0_sub91;
     logic [2:0] fl_c_pt0_sub91;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub91 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub91 (
         .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_c_pt0_add85), .b(dl_c_pt0_add90), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(c_pt0_sub91), .flags(fl_c_pt0_sub91)
     );
@@ -2685,7 +2688,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_add94_a = kind_q[14] ? dl_c_pt0_mul97 : dl_c_pt0_mul92[0*W +: W];
     logic [W-1:0] c_pt0_add94;
     logic [2:0] fl_c_pt0_add94;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add94 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add94 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add94_a), .b(dl_c_pt0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(c_pt0_add94), .flags(fl_c_pt0_add94)
     );
@@ -2701,7 +2704,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_add99_a = kind_q[14] ? dl_c_pt1_angB_x[1*W +: W] : dl_c_pt0_mul97;
     logic [W-1:0] c_pt0_add99;
     logic [2:0] fl_c_pt0_add99;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add99 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add99 (
         .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(c_pt0_add99_a), .b(dl_c_pt0_mul98), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(c_pt0_add99), .flags(fl_c_pt0_add99)
     );
@@ -2715,7 +2718,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add96: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add96 = pt0_add94 + pt0_mul95; friction: t0_add89 = t0_add87 + t0_mul88)
     logic [W-1:0] c_pt0_add96;
     logic [2:0] fl_c_pt0_add96;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add96 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add96 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add94), .b(dl_c_pt0_mul95), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(c_pt0_add96), .flags(fl_c_pt0_add96)
     );
@@ -2729,7 +2732,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add101: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add101 = pt0_add99 + pt0_mul100; friction: t0_add94 = t0_add92 + t0_mul93)
     logic [W-1:0] c_pt0_add101;
     logic [2:0] fl_c_pt0_add101;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add101 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add101 (
         .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_c_pt0_add99), .b(dl_c_pt0_mul100), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(c_pt0_add101), .flags(fl_c_pt0_add101)
     );
@@ -2743,7 +2746,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub102: fp_add @22/22/22 -> @26/26/26 (contact: pt0_sub102 = pt0_add96 - pt0_add101; friction: t0_sub95 = t0_add89 - t0_add94)
     logic [W-1:0] c_pt0_sub102;
     logic [2:0] fl_c_pt0_sub102;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub102 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub102 (
         .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_c_pt0_add96), .b(dl_c_pt0_add101), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(c_pt0_sub102), .flags(fl_c_pt0_sub102)
     );
@@ -2757,7 +2760,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_vrel: fp_add @26/26/26 -> @30/30/30 (contact: pt0_vrel = pt0_sub91 + pt0_sub102; friction: t0_u = t0_sub84 + t0_sub95)
     logic [W-1:0] c_pt0_vrel;
     logic [2:0] fl_c_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_c_pt0_sub91), .b(dl_c_pt0_sub102), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(c_pt0_vrel), .flags(fl_c_pt0_vrel)
     );
@@ -2778,7 +2781,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add104: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add104 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add104;
     logic [2:0] fl_c_pt0_add104;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add104 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add104 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[30]), .a(dl_c_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(c_pt0_add104), .flags(fl_c_pt0_add104)
     );
@@ -2812,7 +2815,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt0_add106_a = kind_q[37] ? dl_in_lamT0[0*W +: W] : dl_in_lam0[0*W +: W];
     logic [W-1:0] c_pt0_add106;
     logic [2:0] fl_c_pt0_add106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add106 (
         .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(c_pt0_add106_a), .b(dl_c_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(c_pt0_add106), .flags(fl_c_pt0_add106)
     );
@@ -2845,7 +2848,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[42]), .a(dl_c_pt0_lam_new_max[0*W +: W]), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(c_pt0_delta), .flags(fl_c_pt0_delta)
     );
@@ -3027,7 +3030,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add119: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add119 = vA_x + pt0_mul116)
     logic [W-1:0] c_pt0_add119;
     logic [2:0] fl_c_pt0_add119;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add119 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add119 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_c_pt0_mul116), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(c_pt0_add119), .flags(fl_c_pt0_add119)
     );
@@ -3041,7 +3044,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add120: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add120 = vA_y + pt0_mul117)
     logic [W-1:0] c_pt0_add120;
     logic [2:0] fl_c_pt0_add120;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add120 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add120 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_c_pt0_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(c_pt0_add120), .flags(fl_c_pt0_add120)
     );
@@ -3055,7 +3058,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add121: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add121 = vA_z + pt0_mul118)
     logic [W-1:0] c_pt0_add121;
     logic [2:0] fl_c_pt0_add121;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add121 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add121 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_c_pt0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(c_pt0_add121), .flags(fl_c_pt0_add121)
     );
@@ -3069,7 +3072,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add128: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add128 = wA_x + pt0_mul125)
     logic [W-1:0] c_pt0_add128;
     logic [2:0] fl_c_pt0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_c_pt0_mul125), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(c_pt0_add128), .flags(fl_c_pt0_add128)
     );
@@ -3083,7 +3086,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add129: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add129 = wA_y + pt0_mul126)
     logic [W-1:0] c_pt0_add129;
     logic [2:0] fl_c_pt0_add129;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add129 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add129 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_c_pt0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(c_pt0_add129), .flags(fl_c_pt0_add129)
     );
@@ -3097,7 +3100,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_add130: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add130 = wA_z + pt0_mul127)
     logic [W-1:0] c_pt0_add130;
     logic [2:0] fl_c_pt0_add130;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add130 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add130 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_c_pt0_mul127), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(c_pt0_add130), .flags(fl_c_pt0_add130)
     );
@@ -3111,7 +3114,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub137: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub137 = vB_x - pt0_mul134)
     logic [W-1:0] c_pt0_sub137;
     logic [2:0] fl_c_pt0_sub137;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub137 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub137 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_c_pt0_mul134), .sub(1'b1),
         .out_valid(op_valid_nc[79]), .y(c_pt0_sub137), .flags(fl_c_pt0_sub137)
     );
@@ -3125,7 +3128,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub138: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub138 = vB_y - pt0_mul135)
     logic [W-1:0] c_pt0_sub138;
     logic [2:0] fl_c_pt0_sub138;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub138 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub138 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_c_pt0_mul135), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(c_pt0_sub138), .flags(fl_c_pt0_sub138)
     );
@@ -3139,7 +3142,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub139: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub139 = vB_z - pt0_mul136)
     logic [W-1:0] c_pt0_sub139;
     logic [2:0] fl_c_pt0_sub139;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub139 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub139 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_c_pt0_mul136), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(c_pt0_sub139), .flags(fl_c_pt0_sub139)
     );
@@ -3153,7 +3156,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub146: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub146 = wB_x - pt0_mul143)
     logic [W-1:0] c_pt0_sub146;
     logic [2:0] fl_c_pt0_sub146;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub146 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub146 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_c_pt0_mul143), .sub(1'b1),
         .out_valid(op_valid_nc[85]), .y(c_pt0_sub146), .flags(fl_c_pt0_sub146)
     );
@@ -3167,7 +3170,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub147: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub147 = wB_y - pt0_mul144)
     logic [W-1:0] c_pt0_sub147;
     logic [2:0] fl_c_pt0_sub147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub147 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_c_pt0_mul144), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(c_pt0_sub147), .flags(fl_c_pt0_sub147)
     );
@@ -3181,7 +3184,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt0_sub148: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub148 = wB_z - pt0_mul145)
     logic [W-1:0] c_pt0_sub148;
     logic [2:0] fl_c_pt0_sub148;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub148 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub148 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_c_pt0_mul145), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(c_pt0_sub148), .flags(fl_c_pt0_sub148)
     );
@@ -3447,7 +3450,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add179: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add179 = pt1_mul177 + pt1_mul178)
     logic [W-1:0] c_pt1_add179;
     logic [2:0] fl_c_pt1_add179;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add179 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add179 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul177), .b(dl_c_pt1_mul178), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(c_pt1_add179), .flags(fl_c_pt1_add179)
     );
@@ -3461,7 +3464,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add184: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add184 = pt1_mul182 + pt1_mul183)
     logic [W-1:0] c_pt1_add184;
     logic [2:0] fl_c_pt1_add184;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add184 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add184 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul182), .b(dl_c_pt1_mul183), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(c_pt1_add184), .flags(fl_c_pt1_add184)
     );
@@ -3475,7 +3478,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add190: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add190 = pt1_mul188 + pt1_mul189)
     logic [W-1:0] c_pt1_add190;
     logic [2:0] fl_c_pt1_add190;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add190 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add190 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul188), .b(dl_c_pt1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(c_pt1_add190), .flags(fl_c_pt1_add190)
     );
@@ -3489,7 +3492,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add195: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add195 = pt1_mul193 + pt1_mul194)
     logic [W-1:0] c_pt1_add195;
     logic [2:0] fl_c_pt1_add195;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add195 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add195 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul193), .b(dl_c_pt1_mul194), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(c_pt1_add195), .flags(fl_c_pt1_add195)
     );
@@ -3503,7 +3506,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add181: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add181 = pt1_add179 + pt1_mul180)
     logic [W-1:0] c_pt1_add181;
     logic [2:0] fl_c_pt1_add181;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add181 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add181 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add179), .b(dl_c_pt1_mul180), .sub(1'b0),
         .out_valid(op_valid_nc[116]), .y(c_pt1_add181), .flags(fl_c_pt1_add181)
     );
@@ -3517,7 +3520,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add186: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add186 = pt1_add184 + pt1_mul185)
     logic [W-1:0] c_pt1_add186;
     logic [2:0] fl_c_pt1_add186;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add186 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add186 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add184), .b(dl_c_pt1_mul185), .sub(1'b0),
         .out_valid(op_valid_nc[121]), .y(c_pt1_add186), .flags(fl_c_pt1_add186)
     );
@@ -3531,7 +3534,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add192: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add192 = pt1_add190 + pt1_mul191)
     logic [W-1:0] c_pt1_add192;
     logic [2:0] fl_c_pt1_add192;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add192 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add192 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add190), .b(dl_c_pt1_mul191), .sub(1'b0),
         .out_valid(op_valid_nc[127]), .y(c_pt1_add192), .flags(fl_c_pt1_add192)
     );
@@ -3545,7 +3548,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add197: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add197 = pt1_add195 + pt1_mul196)
     logic [W-1:0] c_pt1_add197;
     logic [2:0] fl_c_pt1_add197;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add197 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add197 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add195), .b(dl_c_pt1_mul196), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(c_pt1_add197), .flags(fl_c_pt1_add197)
     );
@@ -3559,7 +3562,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_sub187: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub187 = pt1_add181 - pt1_add186)
     logic [W-1:0] c_pt1_sub187;
     logic [2:0] fl_c_pt1_sub187;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub187 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub187 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add181), .b(dl_c_pt1_add186), .sub(1'b1),
         .out_valid(op_valid_nc[122]), .y(c_pt1_sub187), .flags(fl_c_pt1_sub187)
     );
@@ -3573,7 +3576,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_sub198: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub198 = pt1_add192 - pt1_add197)
     logic [W-1:0] c_pt1_sub198;
     logic [2:0] fl_c_pt1_sub198;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub198 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub198 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add192), .b(dl_c_pt1_add197), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(c_pt1_sub198), .flags(fl_c_pt1_sub198)
     );
@@ -3587,7 +3590,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub187 + pt1_sub198)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[68]), .a(dl_c_pt1_sub187), .b(dl_c_pt1_sub198), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(c_pt1_vrel), .flags(fl_c_pt1_vrel)
     );
@@ -3601,7 +3604,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add200: fp_add @72/72/72 -> @76/76/76 (contact: pt1_add200 = pt1_vrel + b1)
     logic [W-1:0] c_pt1_add200;
     logic [2:0] fl_c_pt1_add200;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add200 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add200 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[72]), .a(dl_c_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(c_pt1_add200), .flags(fl_c_pt1_add200)
     );
@@ -3629,7 +3632,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt1_add202: fp_add @79/79/79 -> @83/83/83 (contact: pt1_add202 = lam1 + pt1_delta0)
     logic [W-1:0] c_pt1_add202;
     logic [2:0] fl_c_pt1_add202;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add202 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add202 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_c_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[137]), .y(c_pt1_add202), .flags(fl_c_pt1_add202)
     );
@@ -3679,7 +3682,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_delta_b = kind_q[84] ? dl_in_lamT0[1*W +: W] : dl_in_lam1[1*W +: W];
     logic [W-1:0] c_pt1_delta;
     logic [2:0] fl_c_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(c_pt1_delta_a), .b(c_pt1_delta_b), .sub(1'b1),
         .out_valid(op_valid_nc[139]), .y(c_pt1_delta), .flags(fl_c_pt1_delta)
     );
@@ -3904,7 +3907,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_add215_a = kind_q[91] ? dl_in_vA_x[3*W +: W] : dl_c_pt0_vA_x[1*W +: W];
     logic [W-1:0] c_pt1_add215;
     logic [2:0] fl_c_pt1_add215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add215 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add215_a), .b(dl_c_pt1_mul212), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(c_pt1_add215), .flags(fl_c_pt1_add215)
     );
@@ -3920,7 +3923,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_add216_a = kind_q[91] ? dl_in_vA_y[3*W +: W] : dl_c_pt0_vA_y[1*W +: W];
     logic [W-1:0] c_pt1_add216;
     logic [2:0] fl_c_pt1_add216;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add216 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add216 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add216_a), .b(dl_c_pt1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[150]), .y(c_pt1_add216), .flags(fl_c_pt1_add216)
     );
@@ -3936,7 +3939,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_add217_a = kind_q[91] ? dl_in_vA_z[3*W +: W] : dl_c_pt0_vA_z[1*W +: W];
     logic [W-1:0] c_pt1_add217;
     logic [2:0] fl_c_pt1_add217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add217 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add217_a), .b(dl_c_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(c_pt1_add217), .flags(fl_c_pt1_add217)
     );
@@ -3952,7 +3955,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_add224_a = kind_q[91] ? dl_in_wA_x[3*W +: W] : dl_c_pt0_wA_x[1*W +: W];
     logic [W-1:0] c_pt1_add224;
     logic [2:0] fl_c_pt1_add224;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add224 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add224 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add224_a), .b(dl_c_pt1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(c_pt1_add224), .flags(fl_c_pt1_add224)
     );
@@ -3968,7 +3971,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_add225_a = kind_q[91] ? dl_in_wA_y[3*W +: W] : dl_c_pt0_wA_y[1*W +: W];
     logic [W-1:0] c_pt1_add225;
     logic [2:0] fl_c_pt1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add225_a), .b(dl_c_pt1_mul222), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(c_pt1_add225), .flags(fl_c_pt1_add225)
     );
@@ -3984,7 +3987,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_add226_a = kind_q[91] ? dl_in_wA_z[3*W +: W] : dl_c_pt0_wA_z[1*W +: W];
     logic [W-1:0] c_pt1_add226;
     logic [2:0] fl_c_pt1_add226;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add226 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add226 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add226_a), .b(dl_c_pt1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(c_pt1_add226), .flags(fl_c_pt1_add226)
     );
@@ -4000,7 +4003,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_sub233_a = kind_q[91] ? dl_in_vB_x[3*W +: W] : dl_c_pt0_vB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub233;
     logic [2:0] fl_c_pt1_sub233;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub233 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub233 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub233_a), .b(dl_c_pt1_mul230), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(c_pt1_sub233), .flags(fl_c_pt1_sub233)
     );
@@ -4016,7 +4019,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_sub234_a = kind_q[91] ? dl_in_vB_y[3*W +: W] : dl_c_pt0_vB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub234;
     logic [2:0] fl_c_pt1_sub234;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub234 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub234 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub234_a), .b(dl_c_pt1_mul231), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(c_pt1_sub234), .flags(fl_c_pt1_sub234)
     );
@@ -4032,7 +4035,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_sub235_a = kind_q[91] ? dl_in_vB_z[3*W +: W] : dl_c_pt0_vB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub235;
     logic [2:0] fl_c_pt1_sub235;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub235 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub235 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub235_a), .b(dl_c_pt1_mul232), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(c_pt1_sub235), .flags(fl_c_pt1_sub235)
     );
@@ -4048,7 +4051,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_sub242_a = kind_q[91] ? dl_in_wB_x[3*W +: W] : dl_c_pt0_wB_x[1*W +: W];
     logic [W-1:0] c_pt1_sub242;
     logic [2:0] fl_c_pt1_sub242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub242_a), .b(dl_c_pt1_mul239), .sub(1'b1),
         .out_valid(op_valid_nc[167]), .y(c_pt1_sub242), .flags(fl_c_pt1_sub242)
     );
@@ -4064,7 +4067,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_sub243_a = kind_q[91] ? dl_in_wB_y[3*W +: W] : dl_c_pt0_wB_y[1*W +: W];
     logic [W-1:0] c_pt1_sub243;
     logic [2:0] fl_c_pt1_sub243;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub243 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub243 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub243_a), .b(dl_c_pt1_mul240), .sub(1'b1),
         .out_valid(op_valid_nc[168]), .y(c_pt1_sub243), .flags(fl_c_pt1_sub243)
     );
@@ -4080,7 +4083,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt1_sub244_a = kind_q[91] ? dl_in_wB_z[3*W +: W] : dl_c_pt0_wB_z[1*W +: W];
     logic [W-1:0] c_pt1_sub244;
     logic [2:0] fl_c_pt1_sub244;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub244 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub244 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_sub244_a), .b(dl_c_pt1_mul241), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(c_pt1_sub244), .flags(fl_c_pt1_sub244)
     );
@@ -4478,7 +4481,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add275: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add275 = pt2_mul273 + pt2_mul274; friction: t1_add173 = t1_mul171 + t1_mul172)
     logic [W-1:0] c_pt2_add275;
     logic [2:0] fl_c_pt2_add275;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add275 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add275 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul273), .b(dl_c_pt2_mul274), .sub(1'b0),
         .out_valid(op_valid_nc[196]), .y(c_pt2_add275), .flags(fl_c_pt2_add275)
     );
@@ -4492,7 +4495,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add280: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add280 = pt2_mul278 + pt2_mul279; friction: t1_add178 = t1_mul176 + t1_mul177)
     logic [W-1:0] c_pt2_add280;
     logic [2:0] fl_c_pt2_add280;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add280 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add280 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul278), .b(dl_c_pt2_mul279), .sub(1'b0),
         .out_valid(op_valid_nc[201]), .y(c_pt2_add280), .flags(fl_c_pt2_add280)
     );
@@ -4506,7 +4509,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add286: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add286 = pt2_mul284 + pt2_mul285; friction: t1_add184 = t1_mul182 + t1_mul183)
     logic [W-1:0] c_pt2_add286;
     logic [2:0] fl_c_pt2_add286;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add286 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add286 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul284), .b(dl_c_pt2_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[207]), .y(c_pt2_add286), .flags(fl_c_pt2_add286)
     );
@@ -4520,7 +4523,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add291: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add291 = pt2_mul289 + pt2_mul290; friction: t1_add189 = t1_mul187 + t1_mul188)
     logic [W-1:0] c_pt2_add291;
     logic [2:0] fl_c_pt2_add291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add291 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul289), .b(dl_c_pt2_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[212]), .y(c_pt2_add291), .flags(fl_c_pt2_add291)
     );
@@ -4534,7 +4537,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add277: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add277 = pt2_add275 + pt2_mul276; friction: t1_add175 = t1_add173 + t1_mul174)
     logic [W-1:0] c_pt2_add277;
     logic [2:0] fl_c_pt2_add277;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add277 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add277 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add275), .b(dl_c_pt2_mul276), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(c_pt2_add277), .flags(fl_c_pt2_add277)
     );
@@ -4548,7 +4551,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add282: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add282 = pt2_add280 + pt2_mul281; friction: t1_add180 = t1_add178 + t1_mul179)
     logic [W-1:0] c_pt2_add282;
     logic [2:0] fl_c_pt2_add282;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add282 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add282 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add280), .b(dl_c_pt2_mul281), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(c_pt2_add282), .flags(fl_c_pt2_add282)
     );
@@ -4562,7 +4565,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add288: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add288 = pt2_add286 + pt2_mul287; friction: t1_add186 = t1_add184 + t1_mul185)
     logic [W-1:0] c_pt2_add288;
     logic [2:0] fl_c_pt2_add288;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add288 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add288 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add286), .b(dl_c_pt2_mul287), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(c_pt2_add288), .flags(fl_c_pt2_add288)
     );
@@ -4576,7 +4579,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add293: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add293 = pt2_add291 + pt2_mul292; friction: t1_add191 = t1_add189 + t1_mul190)
     logic [W-1:0] c_pt2_add293;
     logic [2:0] fl_c_pt2_add293;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add293 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add293 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_c_pt2_add291), .b(dl_c_pt2_mul292), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(c_pt2_add293), .flags(fl_c_pt2_add293)
     );
@@ -4590,7 +4593,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub283: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub283 = pt2_add277 - pt2_add282; friction: t1_sub181 = t1_add175 - t1_add180)
     logic [W-1:0] c_pt2_sub283;
     logic [2:0] fl_c_pt2_sub283;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub283 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub283 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add277), .b(dl_c_pt2_add282), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(c_pt2_sub283), .flags(fl_c_pt2_sub283)
     );
@@ -4604,7 +4607,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub294: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub294 = pt2_add288 - pt2_add293; friction: t1_sub192 = t1_add186 - t1_add191)
     logic [W-1:0] c_pt2_sub294;
     logic [2:0] fl_c_pt2_sub294;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub294 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub294 (
         .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_c_pt2_add288), .b(dl_c_pt2_add293), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(c_pt2_sub294), .flags(fl_c_pt2_sub294)
     );
@@ -4618,7 +4621,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub283 + pt2_sub294; friction: t1_u = t1_sub181 + t1_sub192)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_c_pt2_sub283), .b(dl_c_pt2_sub294), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(c_pt2_vrel), .flags(fl_c_pt2_vrel)
     );
@@ -4639,7 +4642,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add296: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add296 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add296;
     logic [2:0] fl_c_pt2_add296;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add296 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add296 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[114]), .a(dl_c_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[217]), .y(c_pt2_add296), .flags(fl_c_pt2_add296)
     );
@@ -4673,7 +4676,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt2_add298_a = kind_q[121] ? dl_in_lamT1[0*W +: W] : dl_in_lam2[0*W +: W];
     logic [W-1:0] c_pt2_add298;
     logic [2:0] fl_c_pt2_add298;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add298 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add298 (
         .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(c_pt2_add298_a), .b(dl_c_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(c_pt2_add298), .flags(fl_c_pt2_add298)
     );
@@ -4706,7 +4709,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2)
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[126]), .a(dl_c_pt2_lam_new_max), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(c_pt2_delta), .flags(fl_c_pt2_delta)
     );
@@ -4909,7 +4912,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt2_add311_b = kind_q[133] ? dl_in_lamT1[1*W +: W] : dl_c_pt2_mul308;
     logic [W-1:0] c_pt2_add311;
     logic [2:0] fl_c_pt2_add311;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add311 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add311 (
         .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(c_pt2_add311_a), .b(c_pt2_add311_b), .sub(kind_q[133]),
         .out_valid(op_valid_nc[231]), .y(c_pt2_add311), .flags(fl_c_pt2_add311)
     );
@@ -4923,7 +4926,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add312: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add312 = pt1_vA_y + pt2_mul309)
     logic [W-1:0] c_pt2_add312;
     logic [2:0] fl_c_pt2_add312;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add312 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add312 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_y[1*W +: W]), .b(dl_c_pt2_mul309), .sub(1'b0),
         .out_valid(op_valid_nc[232]), .y(c_pt2_add312), .flags(fl_c_pt2_add312)
     );
@@ -4937,7 +4940,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add313: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add313 = pt1_vA_z + pt2_mul310)
     logic [W-1:0] c_pt2_add313;
     logic [2:0] fl_c_pt2_add313;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add313 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add313 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_z[1*W +: W]), .b(dl_c_pt2_mul310), .sub(1'b0),
         .out_valid(op_valid_nc[233]), .y(c_pt2_add313), .flags(fl_c_pt2_add313)
     );
@@ -4951,7 +4954,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add320: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add320 = pt1_wA_x + pt2_mul317)
     logic [W-1:0] c_pt2_add320;
     logic [2:0] fl_c_pt2_add320;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add320 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add320 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_x[1*W +: W]), .b(dl_c_pt2_mul317), .sub(1'b0),
         .out_valid(op_valid_nc[237]), .y(c_pt2_add320), .flags(fl_c_pt2_add320)
     );
@@ -4965,7 +4968,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add321: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add321 = pt1_wA_y + pt2_mul318)
     logic [W-1:0] c_pt2_add321;
     logic [2:0] fl_c_pt2_add321;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add321 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add321 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_y[1*W +: W]), .b(dl_c_pt2_mul318), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(c_pt2_add321), .flags(fl_c_pt2_add321)
     );
@@ -4979,7 +4982,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_add322: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add322 = pt1_wA_z + pt2_mul319)
     logic [W-1:0] c_pt2_add322;
     logic [2:0] fl_c_pt2_add322;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add322 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add322 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_z[1*W +: W]), .b(dl_c_pt2_mul319), .sub(1'b0),
         .out_valid(op_valid_nc[239]), .y(c_pt2_add322), .flags(fl_c_pt2_add322)
     );
@@ -4993,7 +4996,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub329: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub329 = pt1_vB_x - pt2_mul326)
     logic [W-1:0] c_pt2_sub329;
     logic [2:0] fl_c_pt2_sub329;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub329 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub329 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_x[1*W +: W]), .b(dl_c_pt2_mul326), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(c_pt2_sub329), .flags(fl_c_pt2_sub329)
     );
@@ -5007,7 +5010,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub330: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub330 = pt1_vB_y - pt2_mul327)
     logic [W-1:0] c_pt2_sub330;
     logic [2:0] fl_c_pt2_sub330;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub330 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub330 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_y[1*W +: W]), .b(dl_c_pt2_mul327), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(c_pt2_sub330), .flags(fl_c_pt2_sub330)
     );
@@ -5021,7 +5024,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub331: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub331 = pt1_vB_z - pt2_mul328)
     logic [W-1:0] c_pt2_sub331;
     logic [2:0] fl_c_pt2_sub331;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub331 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub331 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_z[1*W +: W]), .b(dl_c_pt2_mul328), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(c_pt2_sub331), .flags(fl_c_pt2_sub331)
     );
@@ -5035,7 +5038,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub338: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub338 = pt1_wB_x - pt2_mul335)
     logic [W-1:0] c_pt2_sub338;
     logic [2:0] fl_c_pt2_sub338;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub338 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub338 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_x[1*W +: W]), .b(dl_c_pt2_mul335), .sub(1'b1),
         .out_valid(op_valid_nc[249]), .y(c_pt2_sub338), .flags(fl_c_pt2_sub338)
     );
@@ -5049,7 +5052,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub339: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub339 = pt1_wB_y - pt2_mul336)
     logic [W-1:0] c_pt2_sub339;
     logic [2:0] fl_c_pt2_sub339;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub339 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub339 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_y[1*W +: W]), .b(dl_c_pt2_mul336), .sub(1'b1),
         .out_valid(op_valid_nc[250]), .y(c_pt2_sub339), .flags(fl_c_pt2_sub339)
     );
@@ -5063,7 +5066,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt2_sub340: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub340 = pt1_wB_z - pt2_mul337)
     logic [W-1:0] c_pt2_sub340;
     logic [2:0] fl_c_pt2_sub340;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub340 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub340 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_z[1*W +: W]), .b(dl_c_pt2_mul337), .sub(1'b1),
         .out_valid(op_valid_nc[251]), .y(c_pt2_sub340), .flags(fl_c_pt2_sub340)
     );
@@ -5386,7 +5389,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add371_b = kind_q[140] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_mul370;
     logic [W-1:0] c_pt3_add371;
     logic [2:0] fl_c_pt3_add371;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add371 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add371 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_c_pt3_mul369), .b(c_pt3_add371_b), .sub(1'b0),
         .out_valid(op_valid_nc[278]), .y(c_pt3_add371), .flags(fl_c_pt3_add371)
     );
@@ -5404,7 +5407,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add376_b = kind_q[140] ? dl_c_pt3_mul370 : dl_c_pt3_mul375;
     logic [W-1:0] c_pt3_add376;
     logic [2:0] fl_c_pt3_add376;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add376 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add376 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add376_a), .b(c_pt3_add376_b), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(c_pt3_add376), .flags(fl_c_pt3_add376)
     );
@@ -5422,7 +5425,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add382_b = kind_q[140] ? dl_c_pt3_mul374 : dl_c_pt3_mul381[0*W +: W];
     logic [W-1:0] c_pt3_add382;
     logic [2:0] fl_c_pt3_add382;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add382 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add382 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add382_a), .b(c_pt3_add382_b), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(c_pt3_add382), .flags(fl_c_pt3_add382)
     );
@@ -5440,7 +5443,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add387_b = kind_q[140] ? dl_c_pt3_mul375 : dl_c_pt3_mul386[0*W +: W];
     logic [W-1:0] c_pt3_add387;
     logic [2:0] fl_c_pt3_add387;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add387 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add387 (
         .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(c_pt3_add387_a), .b(c_pt3_add387_b), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(c_pt3_add387), .flags(fl_c_pt3_add387)
     );
@@ -5484,7 +5487,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add373_a = kind_q[144] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt3_add371;
     logic [W-1:0] c_pt3_add373;
     logic [2:0] fl_c_pt3_add373;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add373 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add373 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add373_a), .b(dl_c_pt3_mul372), .sub(1'b0),
         .out_valid(op_valid_nc[280]), .y(c_pt3_add373), .flags(fl_c_pt3_add373)
     );
@@ -5500,7 +5503,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add378_a = kind_q[144] ? dl_f_t0_wA_z[1*W +: W] : dl_c_pt3_add376;
     logic [W-1:0] c_pt3_add378;
     logic [2:0] fl_c_pt3_add378;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add378 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add378 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add378_a), .b(dl_c_pt3_mul377), .sub(1'b0),
         .out_valid(op_valid_nc[285]), .y(c_pt3_add378), .flags(fl_c_pt3_add378)
     );
@@ -5518,7 +5521,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add384_b = kind_q[144] ? dl_c_pt3_mul380[1*W +: W] : dl_c_pt3_mul383[0*W +: W];
     logic [W-1:0] c_pt3_add384;
     logic [2:0] fl_c_pt3_add384;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add384 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add384 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add384_a), .b(c_pt3_add384_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[291]), .y(c_pt3_add384), .flags(fl_c_pt3_add384)
     );
@@ -5536,7 +5539,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add389_b = kind_q[144] ? dl_c_pt3_mul381[1*W +: W] : dl_c_pt3_mul388[0*W +: W];
     logic [W-1:0] c_pt3_add389;
     logic [2:0] fl_c_pt3_add389;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add389 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add389 (
         .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(c_pt3_add389_a), .b(c_pt3_add389_b), .sub(kind_q[144]),
         .out_valid(op_valid_nc[296]), .y(c_pt3_add389), .flags(fl_c_pt3_add389)
     );
@@ -5578,7 +5581,7 @@ module pgs_shared_pipe_scalar_mu #(
     // f_spin_add253: fp_add @147/147/147 -> @151/151/151 (friction: spin_add253 = spin_mul251 + spin_mul252)
     logic [W-1:0] f_spin_add253;
     logic [2:0] fl_f_spin_add253;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add253 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add253 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[147]), .a(dl_f_spin_mul251), .b(dl_f_spin_mul252), .sub(1'b0),
         .out_valid(op_valid_nc[337]), .y(f_spin_add253), .flags(fl_f_spin_add253)
     );
@@ -5624,7 +5627,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_sub379_b = kind_q[148] ? dl_c_pt3_mul383[1*W +: W] : dl_c_pt3_add378;
     logic [W-1:0] c_pt3_sub379;
     logic [2:0] fl_c_pt3_sub379;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub379 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub379 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub379_a), .b(c_pt3_sub379_b), .sub(1'b1),
         .out_valid(op_valid_nc[286]), .y(c_pt3_sub379), .flags(fl_c_pt3_sub379)
     );
@@ -5642,7 +5645,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_sub390_b = kind_q[148] ? dl_c_pt3_mul385[1*W +: W] : dl_c_pt3_add389;
     logic [W-1:0] c_pt3_sub390;
     logic [2:0] fl_c_pt3_sub390;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub390 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub390 (
         .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(c_pt3_sub390_a), .b(c_pt3_sub390_b), .sub(1'b1),
         .out_valid(op_valid_nc[297]), .y(c_pt3_sub390), .flags(fl_c_pt3_sub390)
     );
@@ -5674,7 +5677,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_vrel_b = kind_q[152] ? dl_c_pt3_mul386[1*W +: W] : dl_c_pt3_sub390;
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(c_pt3_vrel_a), .b(c_pt3_vrel_b), .sub(kind_q[152]),
         .out_valid(op_valid_nc[298]), .y(c_pt3_vrel), .flags(fl_c_pt3_vrel)
     );
@@ -5713,7 +5716,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add392_b = kind_q[156] ? dl_c_pt3_mul388[1*W +: W] : dl_in_b3;
     logic [W-1:0] c_pt3_add392;
     logic [2:0] fl_c_pt3_add392;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add392 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add392 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(c_pt3_add392_a), .b(c_pt3_add392_b), .sub(kind_q[156]),
         .out_valid(op_valid_nc[299]), .y(c_pt3_add392), .flags(fl_c_pt3_add392)
     );
@@ -5741,7 +5744,7 @@ module pgs_shared_pipe_scalar_mu #(
     // f_spin_add265: fp_add @159/159/159 -> @163/163/163 (friction: spin_add265 = spin_mul263 + spin_mul264)
     logic [W-1:0] f_spin_add265;
     logic [2:0] fl_f_spin_add265;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add265 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add265 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[159]), .a(dl_f_spin_mul263), .b(dl_f_spin_mul264), .sub(1'b0),
         .out_valid(op_valid_nc[341]), .y(f_spin_add265), .flags(fl_f_spin_add265)
     );
@@ -5796,7 +5799,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add394_a = kind_q[163] ? dl_f_spin_add253 : dl_in_lam3[0*W +: W];
     logic [W-1:0] c_pt3_add394;
     logic [2:0] fl_c_pt3_add394;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add394 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add394 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(c_pt3_add394_a), .b(dl_c_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(c_pt3_add394), .flags(fl_c_pt3_add394)
     );
@@ -5810,7 +5813,7 @@ module pgs_shared_pipe_scalar_mu #(
     // f_spin_add267: fp_add @163/163/163 -> @167/167/167 (friction: spin_add267 = spin_add265 + spin_mul266)
     logic [W-1:0] f_spin_add267;
     logic [2:0] fl_f_spin_add267;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add267 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add267 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[163]), .a(dl_f_spin_add265), .b(dl_f_spin_mul266), .sub(1'b0),
         .out_valid(op_valid_nc[343]), .y(f_spin_add267), .flags(fl_f_spin_add267)
     );
@@ -5869,7 +5872,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[168]), .a(dl_c_pt3_lam_new_max), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[303]), .y(c_pt3_delta), .flags(fl_c_pt3_delta)
     );
@@ -6077,7 +6080,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add407_a = kind_q[175] ? dl_f_t1_wA_x[1*W +: W] : dl_c_pt2_vA_x[1*W +: W];
     logic [W-1:0] c_pt3_add407;
     logic [2:0] fl_c_pt3_add407;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add407 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add407 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add407_a), .b(dl_c_pt3_mul404), .sub(kind_q[175]),
         .out_valid(op_valid_nc[313]), .y(c_pt3_add407), .flags(fl_c_pt3_add407)
     );
@@ -6093,7 +6096,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add408_a = kind_q[175] ? dl_f_t1_wA_y[1*W +: W] : dl_c_pt2_vA_y[1*W +: W];
     logic [W-1:0] c_pt3_add408;
     logic [2:0] fl_c_pt3_add408;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add408 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add408 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add408_a), .b(dl_c_pt3_mul405), .sub(kind_q[175]),
         .out_valid(op_valid_nc[314]), .y(c_pt3_add408), .flags(fl_c_pt3_add408)
     );
@@ -6109,7 +6112,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add409_a = kind_q[175] ? dl_f_t1_wA_z[1*W +: W] : dl_c_pt2_vA_z[1*W +: W];
     logic [W-1:0] c_pt3_add409;
     logic [2:0] fl_c_pt3_add409;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add409 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add409 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add409_a), .b(dl_c_pt3_mul406), .sub(kind_q[175]),
         .out_valid(op_valid_nc[315]), .y(c_pt3_add409), .flags(fl_c_pt3_add409)
     );
@@ -6125,7 +6128,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add416_a = kind_q[175] ? dl_f_t1_wB_x[1*W +: W] : dl_c_pt2_wA_x[1*W +: W];
     logic [W-1:0] c_pt3_add416;
     logic [2:0] fl_c_pt3_add416;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add416 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add416 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add416_a), .b(dl_c_pt3_mul413), .sub(kind_q[175]),
         .out_valid(op_valid_nc[319]), .y(c_pt3_add416), .flags(fl_c_pt3_add416)
     );
@@ -6141,7 +6144,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add417_a = kind_q[175] ? dl_f_t1_wB_y[1*W +: W] : dl_c_pt2_wA_y[1*W +: W];
     logic [W-1:0] c_pt3_add417;
     logic [2:0] fl_c_pt3_add417;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add417 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add417 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add417_a), .b(dl_c_pt3_mul414), .sub(kind_q[175]),
         .out_valid(op_valid_nc[320]), .y(c_pt3_add417), .flags(fl_c_pt3_add417)
     );
@@ -6157,7 +6160,7 @@ module pgs_shared_pipe_scalar_mu #(
     assign c_pt3_add418_a = kind_q[175] ? dl_f_t1_wB_z[1*W +: W] : dl_c_pt2_wA_z[1*W +: W];
     logic [W-1:0] c_pt3_add418;
     logic [2:0] fl_c_pt3_add418;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add418 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add418 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add418_a), .b(dl_c_pt3_mul415), .sub(kind_q[175]),
         .out_valid(op_valid_nc[321]), .y(c_pt3_add418), .flags(fl_c_pt3_add418)
     );
@@ -6171,7 +6174,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_sub425: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub425 = pt2_vB_x - pt3_mul422)
     logic [W-1:0] c_pt3_sub425;
     logic [2:0] fl_c_pt3_sub425;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub425 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub425 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_x[1*W +: W]), .b(dl_c_pt3_mul422), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(c_pt3_sub425), .flags(fl_c_pt3_sub425)
     );
@@ -6185,7 +6188,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_sub426: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub426 = pt2_vB_y - pt3_mul423)
     logic [W-1:0] c_pt3_sub426;
     logic [2:0] fl_c_pt3_sub426;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub426 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub426 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_y[1*W +: W]), .b(dl_c_pt3_mul423), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(c_pt3_sub426), .flags(fl_c_pt3_sub426)
     );
@@ -6199,7 +6202,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_sub427: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub427 = pt2_vB_z - pt3_mul424)
     logic [W-1:0] c_pt3_sub427;
     logic [2:0] fl_c_pt3_sub427;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub427 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub427 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_vB_z[1*W +: W]), .b(dl_c_pt3_mul424), .sub(1'b1),
         .out_valid(op_valid_nc[327]), .y(c_pt3_sub427), .flags(fl_c_pt3_sub427)
     );
@@ -6213,7 +6216,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_sub434: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub434 = pt2_wB_x - pt3_mul431)
     logic [W-1:0] c_pt3_sub434;
     logic [2:0] fl_c_pt3_sub434;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub434 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub434 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_x[1*W +: W]), .b(dl_c_pt3_mul431), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(c_pt3_sub434), .flags(fl_c_pt3_sub434)
     );
@@ -6227,7 +6230,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_sub435: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub435 = pt2_wB_y - pt3_mul432)
     logic [W-1:0] c_pt3_sub435;
     logic [2:0] fl_c_pt3_sub435;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub435 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub435 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_y[1*W +: W]), .b(dl_c_pt3_mul432), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(c_pt3_sub435), .flags(fl_c_pt3_sub435)
     );
@@ -6241,7 +6244,7 @@ module pgs_shared_pipe_scalar_mu #(
     // c_pt3_sub436: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub436 = pt2_wB_z - pt3_mul433)
     logic [W-1:0] c_pt3_sub436;
     logic [2:0] fl_c_pt3_sub436;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub436 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub436 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_z[1*W +: W]), .b(dl_c_pt3_mul433), .sub(1'b1),
         .out_valid(op_valid_nc[333]), .y(c_pt3_sub436), .flags(fl_c_pt3_sub436)
     );

@@ -37,6 +37,9 @@ module pgs_shared_pipe_soft_tb #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 57,
     localparam int N_OUT    = 16,
@@ -785,7 +788,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt0_rA_x_b = kind_q[0] ? dl_in_lam1[0*W +: W] : dl_in_xA_x;
     logic [W-1:0] c_pt0_rA_x;
     logic [2:0] fl_c_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_x_a), .b(c_pt0_rA_x_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[6]), .y(c_pt0_rA_x), .flags(fl_c_pt0_rA_x)
     );
@@ -803,7 +806,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt0_rA_y_b = kind_q[0] ? dl_in_lam3[0*W +: W] : dl_in_xA_y;
     logic [W-1:0] c_pt0_rA_y;
     logic [2:0] fl_c_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_y_a), .b(c_pt0_rA_y_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[7]), .y(c_pt0_rA_y), .flags(fl_c_pt0_rA_y)
     );
@@ -817,7 +820,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rA_z = p0_z - xA_z; friction: rA_z = c_z - xA_z)
     logic [W-1:0] c_pt0_rA_z;
     logic [2:0] fl_c_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(c_pt0_rA_z), .flags(fl_c_pt0_rA_z)
     );
@@ -833,7 +836,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt0_rB_x_b = kind_q[0] ? dl_in_xA_x : dl_in_xB_x;
     logic [W-1:0] c_pt0_rB_x;
     logic [2:0] fl_c_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x__c_x), .b(c_pt0_rB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(c_pt0_rB_x), .flags(fl_c_pt0_rB_x)
     );
@@ -849,7 +852,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt0_rB_y_b = kind_q[0] ? dl_in_xA_y : dl_in_xB_y;
     logic [W-1:0] c_pt0_rB_y;
     logic [2:0] fl_c_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y__c_y), .b(c_pt0_rB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(c_pt0_rB_y), .flags(fl_c_pt0_rB_y)
     );
@@ -863,7 +866,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rB_z = p0_z - xB_z; friction: rB_z = c_z - xB_z)
     logic [W-1:0] c_pt0_rB_z;
     logic [2:0] fl_c_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(c_pt0_rB_z), .flags(fl_c_pt0_rB_z)
     );
@@ -975,7 +978,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_x = p1_x - xA_x)
     logic [W-1:0] c_pt1_rA_x;
     logic [2:0] fl_c_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_x__f_jac_inv0[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(c_pt1_rA_x), .flags(fl_c_pt1_rA_x)
     );
@@ -989,7 +992,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_y = p1_y - xA_y)
     logic [W-1:0] c_pt1_rA_y;
     logic [2:0] fl_c_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_y__f_jac_inv1[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(c_pt1_rA_y), .flags(fl_c_pt1_rA_y)
     );
@@ -1003,7 +1006,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_z = p1_z - xA_z)
     logic [W-1:0] c_pt1_rA_z;
     logic [2:0] fl_c_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(c_pt1_rA_z), .flags(fl_c_pt1_rA_z)
     );
@@ -1019,7 +1022,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt1_rB_x_a = kind_q[0] ? dl_in_p0_x__c_x : dl_in_p1_x__f_jac_inv0[0*W +: W];
     logic [W-1:0] c_pt1_rB_x;
     logic [2:0] fl_c_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_x_a), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(c_pt1_rB_x), .flags(fl_c_pt1_rB_x)
     );
@@ -1035,7 +1038,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt1_rB_y_a = kind_q[0] ? dl_in_p0_y__c_y : dl_in_p1_y__f_jac_inv1[0*W +: W];
     logic [W-1:0] c_pt1_rB_y;
     logic [2:0] fl_c_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_y_a), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(c_pt1_rB_y), .flags(fl_c_pt1_rB_y)
     );
@@ -1049,7 +1052,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rB_z = p1_z - xB_z)
     logic [W-1:0] c_pt1_rB_z;
     logic [2:0] fl_c_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(c_pt1_rB_z), .flags(fl_c_pt1_rB_z)
     );
@@ -1077,7 +1080,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_x = p2_x - xA_x)
     logic [W-1:0] c_pt2_rA_x;
     logic [2:0] fl_c_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(c_pt2_rA_x), .flags(fl_c_pt2_rA_x)
     );
@@ -1091,7 +1094,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_y = p2_y - xA_y)
     logic [W-1:0] c_pt2_rA_y;
     logic [2:0] fl_c_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(c_pt2_rA_y), .flags(fl_c_pt2_rA_y)
     );
@@ -1105,7 +1108,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_z = p2_z - xA_z)
     logic [W-1:0] c_pt2_rA_z;
     logic [2:0] fl_c_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[174]), .y(c_pt2_rA_z), .flags(fl_c_pt2_rA_z)
     );
@@ -1119,7 +1122,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_x = p2_x - xB_x)
     logic [W-1:0] c_pt2_rB_x;
     logic [2:0] fl_c_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(c_pt2_rB_x), .flags(fl_c_pt2_rB_x)
     );
@@ -1133,7 +1136,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_y = p2_y - xB_y)
     logic [W-1:0] c_pt2_rB_y;
     logic [2:0] fl_c_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(c_pt2_rB_y), .flags(fl_c_pt2_rB_y)
     );
@@ -1147,7 +1150,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_z = p2_z - xB_z)
     logic [W-1:0] c_pt2_rB_z;
     logic [2:0] fl_c_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[186]), .y(c_pt2_rB_z), .flags(fl_c_pt2_rB_z)
     );
@@ -1175,7 +1178,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_x = p3_x - xA_x)
     logic [W-1:0] c_pt3_rA_x;
     logic [2:0] fl_c_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[255]), .y(c_pt3_rA_x), .flags(fl_c_pt3_rA_x)
     );
@@ -1189,7 +1192,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_y = p3_y - xA_y)
     logic [W-1:0] c_pt3_rA_y;
     logic [2:0] fl_c_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[256]), .y(c_pt3_rA_y), .flags(fl_c_pt3_rA_y)
     );
@@ -1203,7 +1206,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_z = p3_z - xA_z)
     logic [W-1:0] c_pt3_rA_z;
     logic [2:0] fl_c_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(c_pt3_rA_z), .flags(fl_c_pt3_rA_z)
     );
@@ -1217,7 +1220,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_x = p3_x - xB_x)
     logic [W-1:0] c_pt3_rB_x;
     logic [2:0] fl_c_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[267]), .y(c_pt3_rB_x), .flags(fl_c_pt3_rB_x)
     );
@@ -1231,7 +1234,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_y = p3_y - xB_y)
     logic [W-1:0] c_pt3_rB_y;
     logic [2:0] fl_c_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[268]), .y(c_pt3_rB_y), .flags(fl_c_pt3_rB_y)
     );
@@ -1245,7 +1248,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_z = p3_z - xB_z)
     logic [W-1:0] c_pt3_rB_z;
     logic [2:0] fl_c_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(c_pt3_rB_z), .flags(fl_c_pt3_rB_z)
     );
@@ -1297,7 +1300,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt0_add107_b = kind_q[3] ? dl_c_linA_y[4*W +: W] : dl_c_pt0_mul106;
     logic [W-1:0] c_pt0_add107;
     logic [2:0] fl_c_pt0_add107;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add107 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add107 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(c_pt0_add107_a), .b(c_pt0_add107_b), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(c_pt0_add107), .flags(fl_c_pt0_add107)
     );
@@ -1315,7 +1318,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt0_add112_b = kind_q[3] ? dl_c_linA_x[4*W +: W] : dl_c_pt0_mul111;
     logic [W-1:0] c_pt0_add112;
     logic [2:0] fl_c_pt0_add112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add112 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(c_pt0_add112_a), .b(c_pt0_add112_b), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(c_pt0_add112), .flags(fl_c_pt0_add112)
     );
@@ -2019,7 +2022,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt0_cA_x_b = kind_q[7] ? dl_c_pt0_rA_y[1*W +: W] : dl_c_pt0_mul85;
     logic [W-1:0] c_pt0_cA_x;
     logic [2:0] fl_c_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_x_a), .b(c_pt0_cA_x_b), .sub(!kind_q[7]),
         .out_valid(op_valid_nc[11]), .y(c_pt0_cA_x), .flags(fl_c_pt0_cA_x)
     );
@@ -2033,7 +2036,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cA_y = pt0_mul87 - pt0_mul88)
     logic [W-1:0] c_pt0_cA_y;
     logic [2:0] fl_c_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul87), .b(dl_c_pt0_mul88), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(c_pt0_cA_y), .flags(fl_c_pt0_cA_y)
     );
@@ -2047,7 +2050,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cA_z = pt0_mul90 - pt0_mul91)
     logic [W-1:0] c_pt0_cA_z;
     logic [2:0] fl_c_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul90), .b(dl_c_pt0_mul91), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(c_pt0_cA_z), .flags(fl_c_pt0_cA_z)
     );
@@ -2061,7 +2064,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_x = pt0_mul96 - pt0_mul97)
     logic [W-1:0] c_pt0_cB_x;
     logic [2:0] fl_c_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul96), .b(dl_c_pt0_mul97), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(c_pt0_cB_x), .flags(fl_c_pt0_cB_x)
     );
@@ -2075,7 +2078,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_y = pt0_mul99 - pt0_mul100)
     logic [W-1:0] c_pt0_cB_y;
     logic [2:0] fl_c_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul99), .b(dl_c_pt0_mul100), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(c_pt0_cB_y), .flags(fl_c_pt0_cB_y)
     );
@@ -2089,7 +2092,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_z = pt0_mul102 - pt0_mul103)
     logic [W-1:0] c_pt0_cB_z;
     logic [2:0] fl_c_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul102), .b(dl_c_pt0_mul103), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(c_pt0_cB_z), .flags(fl_c_pt0_cB_z)
     );
@@ -2103,7 +2106,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add109: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add109 = pt0_add107 + pt0_mul108)
     logic [W-1:0] c_pt0_add109;
     logic [2:0] fl_c_pt0_add109;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add109 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add109 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_add107[0*W +: W]), .b(dl_c_pt0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(c_pt0_add109), .flags(fl_c_pt0_add109)
     );
@@ -2117,7 +2120,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add114: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add114 = pt0_add112 + pt0_mul113)
     logic [W-1:0] c_pt0_add114;
     logic [2:0] fl_c_pt0_add114;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add114 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add114 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_add112[0*W +: W]), .b(dl_c_pt0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(c_pt0_add114), .flags(fl_c_pt0_add114)
     );
@@ -2131,7 +2134,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cA_x = pt1_mul181 - pt1_mul182)
     logic [W-1:0] c_pt1_cA_x;
     logic [2:0] fl_c_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul181), .b(dl_c_pt1_mul182), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(c_pt1_cA_x), .flags(fl_c_pt1_cA_x)
     );
@@ -2145,7 +2148,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cA_y = pt1_mul184 - pt1_mul185)
     logic [W-1:0] c_pt1_cA_y;
     logic [2:0] fl_c_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul184), .b(dl_c_pt1_mul185), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(c_pt1_cA_y), .flags(fl_c_pt1_cA_y)
     );
@@ -2159,7 +2162,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cA_z = pt1_mul187 - pt1_mul188)
     logic [W-1:0] c_pt1_cA_z;
     logic [2:0] fl_c_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul187), .b(dl_c_pt1_mul188), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(c_pt1_cA_z), .flags(fl_c_pt1_cA_z)
     );
@@ -2173,7 +2176,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_x = pt1_mul193 - pt1_mul194)
     logic [W-1:0] c_pt1_cB_x;
     logic [2:0] fl_c_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul193), .b(dl_c_pt1_mul194), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(c_pt1_cB_x), .flags(fl_c_pt1_cB_x)
     );
@@ -2187,7 +2190,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_y = pt1_mul196 - pt1_mul197)
     logic [W-1:0] c_pt1_cB_y;
     logic [2:0] fl_c_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul196), .b(dl_c_pt1_mul197), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(c_pt1_cB_y), .flags(fl_c_pt1_cB_y)
     );
@@ -2201,7 +2204,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_z = pt1_mul199 - pt1_mul200)
     logic [W-1:0] c_pt1_cB_z;
     logic [2:0] fl_c_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul199), .b(dl_c_pt1_mul200), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(c_pt1_cB_z), .flags(fl_c_pt1_cB_z)
     );
@@ -2215,7 +2218,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_x = pt2_mul278 - pt2_mul279)
     logic [W-1:0] c_pt2_cA_x;
     logic [2:0] fl_c_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul278), .b(dl_c_pt2_mul279), .sub(1'b1),
         .out_valid(op_valid_nc[177]), .y(c_pt2_cA_x), .flags(fl_c_pt2_cA_x)
     );
@@ -2229,7 +2232,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_y = pt2_mul281 - pt2_mul282)
     logic [W-1:0] c_pt2_cA_y;
     logic [2:0] fl_c_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul281), .b(dl_c_pt2_mul282), .sub(1'b1),
         .out_valid(op_valid_nc[180]), .y(c_pt2_cA_y), .flags(fl_c_pt2_cA_y)
     );
@@ -2243,7 +2246,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_z = pt2_mul284 - pt2_mul285)
     logic [W-1:0] c_pt2_cA_z;
     logic [2:0] fl_c_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul284), .b(dl_c_pt2_mul285), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(c_pt2_cA_z), .flags(fl_c_pt2_cA_z)
     );
@@ -2257,7 +2260,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_x = pt2_mul290 - pt2_mul291)
     logic [W-1:0] c_pt2_cB_x;
     logic [2:0] fl_c_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul290), .b(dl_c_pt2_mul291), .sub(1'b1),
         .out_valid(op_valid_nc[189]), .y(c_pt2_cB_x), .flags(fl_c_pt2_cB_x)
     );
@@ -2271,7 +2274,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_y = pt2_mul293 - pt2_mul294)
     logic [W-1:0] c_pt2_cB_y;
     logic [2:0] fl_c_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul293), .b(dl_c_pt2_mul294), .sub(1'b1),
         .out_valid(op_valid_nc[192]), .y(c_pt2_cB_y), .flags(fl_c_pt2_cB_y)
     );
@@ -2285,7 +2288,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_z = pt2_mul296 - pt2_mul297)
     logic [W-1:0] c_pt2_cB_z;
     logic [2:0] fl_c_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul296), .b(dl_c_pt2_mul297), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(c_pt2_cB_z), .flags(fl_c_pt2_cB_z)
     );
@@ -2299,7 +2302,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_x = pt3_mul375 - pt3_mul376)
     logic [W-1:0] c_pt3_cA_x;
     logic [2:0] fl_c_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul375), .b(dl_c_pt3_mul376), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(c_pt3_cA_x), .flags(fl_c_pt3_cA_x)
     );
@@ -2313,7 +2316,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_y = pt3_mul378 - pt3_mul379)
     logic [W-1:0] c_pt3_cA_y;
     logic [2:0] fl_c_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul378), .b(dl_c_pt3_mul379), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(c_pt3_cA_y), .flags(fl_c_pt3_cA_y)
     );
@@ -2327,7 +2330,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_z = pt3_mul381 - pt3_mul382)
     logic [W-1:0] c_pt3_cA_z;
     logic [2:0] fl_c_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul381), .b(dl_c_pt3_mul382), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(c_pt3_cA_z), .flags(fl_c_pt3_cA_z)
     );
@@ -2341,7 +2344,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_x = pt3_mul387 - pt3_mul388)
     logic [W-1:0] c_pt3_cB_x;
     logic [2:0] fl_c_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul387), .b(dl_c_pt3_mul388), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(c_pt3_cB_x), .flags(fl_c_pt3_cB_x)
     );
@@ -2355,7 +2358,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_y = pt3_mul390 - pt3_mul391)
     logic [W-1:0] c_pt3_cB_y;
     logic [2:0] fl_c_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul390), .b(dl_c_pt3_mul391), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(c_pt3_cB_y), .flags(fl_c_pt3_cB_y)
     );
@@ -2369,7 +2372,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_z = pt3_mul393 - pt3_mul394)
     logic [W-1:0] c_pt3_cB_z;
     logic [2:0] fl_c_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul393), .b(dl_c_pt3_mul394), .sub(1'b1),
         .out_valid(op_valid_nc[278]), .y(c_pt3_cB_z), .flags(fl_c_pt3_cB_z)
     );
@@ -2411,7 +2414,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub115: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub115 = pt0_add109 - pt0_add114)
     logic [W-1:0] c_pt0_sub115;
     logic [2:0] fl_c_pt0_sub115;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub115 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub115 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[11]), .a(dl_c_pt0_add109), .b(dl_c_pt0_add114), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(c_pt0_sub115), .flags(fl_c_pt0_sub115)
     );
@@ -2854,7 +2857,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add118: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add118 = pt0_mul116 + pt0_mul117)
     logic [W-1:0] c_pt0_add118;
     logic [2:0] fl_c_pt0_add118;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add118 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add118 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt0_mul116[0*W +: W]), .b(dl_c_pt0_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(c_pt0_add118), .flags(fl_c_pt0_add118)
     );
@@ -2868,7 +2871,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add123: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add123 = pt0_mul121 + pt0_mul122)
     logic [W-1:0] c_pt0_add123;
     logic [2:0] fl_c_pt0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt0_mul121), .b(dl_c_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(c_pt0_add123), .flags(fl_c_pt0_add123)
     );
@@ -2882,7 +2885,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add120: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add120 = pt0_add118 + pt0_mul119)
     logic [W-1:0] c_pt0_add120;
     logic [2:0] fl_c_pt0_add120;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add120 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add120 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt0_add118), .b(dl_c_pt0_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(c_pt0_add120), .flags(fl_c_pt0_add120)
     );
@@ -2896,7 +2899,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add125: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add125 = pt0_add123 + pt0_mul124)
     logic [W-1:0] c_pt0_add125;
     logic [2:0] fl_c_pt0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt0_add123), .b(dl_c_pt0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(c_pt0_add125), .flags(fl_c_pt0_add125)
     );
@@ -2910,7 +2913,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub126: fp_add @22/22/22 -> @26/26/26 (contact: pt0_sub126 = pt0_add120 - pt0_add125)
     logic [W-1:0] c_pt0_sub126;
     logic [2:0] fl_c_pt0_sub126;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub126 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub126 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[22]), .a(dl_c_pt0_add120), .b(dl_c_pt0_add125), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(c_pt0_sub126), .flags(fl_c_pt0_sub126)
     );
@@ -2924,7 +2927,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_vrel: fp_add @26/26/26 -> @30/30/30 (contact: pt0_vrel = pt0_sub115 + pt0_sub126)
     logic [W-1:0] c_pt0_vrel;
     logic [2:0] fl_c_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[26]), .a(dl_c_pt0_sub115), .b(dl_c_pt0_sub126), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(c_pt0_vrel), .flags(fl_c_pt0_vrel)
     );
@@ -2938,7 +2941,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add128: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add128 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add128;
     logic [2:0] fl_c_pt0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[30]), .a(dl_c_pt0_vrel), .b(dl_in_b0[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(c_pt0_add128), .flags(fl_c_pt0_add128)
     );
@@ -2994,7 +2997,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add131: fp_add @37/37/37 -> @41/41/41 (contact: pt0_add131 = pt0_lam_kept + pt0_delta0)
     logic [W-1:0] c_pt0_add131;
     logic [2:0] fl_c_pt0_add131;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add131 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add131 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[37]), .a(dl_c_pt0_lam_kept), .b(dl_c_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[56]), .y(c_pt0_add131), .flags(fl_c_pt0_add131)
     );
@@ -3025,7 +3028,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[42]), .a(dl_c_pt0_lam_new_max), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[58]), .y(c_pt0_delta), .flags(fl_c_pt0_delta)
     );
@@ -3207,7 +3210,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add144: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add144 = vA_x + pt0_mul141)
     logic [W-1:0] c_pt0_add144;
     logic [2:0] fl_c_pt0_add144;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add144 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add144 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_c_pt0_mul141), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(c_pt0_add144), .flags(fl_c_pt0_add144)
     );
@@ -3221,7 +3224,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add145: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add145 = vA_y + pt0_mul142)
     logic [W-1:0] c_pt0_add145;
     logic [2:0] fl_c_pt0_add145;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add145 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add145 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_c_pt0_mul142), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(c_pt0_add145), .flags(fl_c_pt0_add145)
     );
@@ -3235,7 +3238,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add146: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add146 = vA_z + pt0_mul143)
     logic [W-1:0] c_pt0_add146;
     logic [2:0] fl_c_pt0_add146;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add146 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add146 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_c_pt0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(c_pt0_add146), .flags(fl_c_pt0_add146)
     );
@@ -3249,7 +3252,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add153: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add153 = wA_x + pt0_mul150)
     logic [W-1:0] c_pt0_add153;
     logic [2:0] fl_c_pt0_add153;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add153 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add153 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_c_pt0_mul150), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(c_pt0_add153), .flags(fl_c_pt0_add153)
     );
@@ -3263,7 +3266,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add154: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add154 = wA_y + pt0_mul151)
     logic [W-1:0] c_pt0_add154;
     logic [2:0] fl_c_pt0_add154;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add154 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add154 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_c_pt0_mul151), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(c_pt0_add154), .flags(fl_c_pt0_add154)
     );
@@ -3277,7 +3280,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_add155: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add155 = wA_z + pt0_mul152)
     logic [W-1:0] c_pt0_add155;
     logic [2:0] fl_c_pt0_add155;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add155 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add155 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_c_pt0_mul152), .sub(1'b0),
         .out_valid(op_valid_nc[76]), .y(c_pt0_add155), .flags(fl_c_pt0_add155)
     );
@@ -3291,7 +3294,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub162: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub162 = vB_x - pt0_mul159)
     logic [W-1:0] c_pt0_sub162;
     logic [2:0] fl_c_pt0_sub162;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub162 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub162 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_c_pt0_mul159), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(c_pt0_sub162), .flags(fl_c_pt0_sub162)
     );
@@ -3305,7 +3308,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub163: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub163 = vB_y - pt0_mul160)
     logic [W-1:0] c_pt0_sub163;
     logic [2:0] fl_c_pt0_sub163;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub163 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub163 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_c_pt0_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(c_pt0_sub163), .flags(fl_c_pt0_sub163)
     );
@@ -3319,7 +3322,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub164: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub164 = vB_z - pt0_mul161)
     logic [W-1:0] c_pt0_sub164;
     logic [2:0] fl_c_pt0_sub164;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub164 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub164 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_c_pt0_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(c_pt0_sub164), .flags(fl_c_pt0_sub164)
     );
@@ -3333,7 +3336,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub171: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub171 = wB_x - pt0_mul168)
     logic [W-1:0] c_pt0_sub171;
     logic [2:0] fl_c_pt0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_c_pt0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(c_pt0_sub171), .flags(fl_c_pt0_sub171)
     );
@@ -3347,7 +3350,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub172: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub172 = wB_y - pt0_mul169)
     logic [W-1:0] c_pt0_sub172;
     logic [2:0] fl_c_pt0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_c_pt0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(c_pt0_sub172), .flags(fl_c_pt0_sub172)
     );
@@ -3361,7 +3364,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt0_sub173: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub173 = wB_z - pt0_mul170)
     logic [W-1:0] c_pt0_sub173;
     logic [2:0] fl_c_pt0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_c_pt0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(c_pt0_sub173), .flags(fl_c_pt0_sub173)
     );
@@ -3627,7 +3630,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add204: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add204 = pt1_mul202 + pt1_mul203)
     logic [W-1:0] c_pt1_add204;
     logic [2:0] fl_c_pt1_add204;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add204 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add204 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul202), .b(dl_c_pt1_mul203), .sub(1'b0),
         .out_valid(op_valid_nc[115]), .y(c_pt1_add204), .flags(fl_c_pt1_add204)
     );
@@ -3641,7 +3644,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add209: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add209 = pt1_mul207 + pt1_mul208)
     logic [W-1:0] c_pt1_add209;
     logic [2:0] fl_c_pt1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul207), .b(dl_c_pt1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[120]), .y(c_pt1_add209), .flags(fl_c_pt1_add209)
     );
@@ -3655,7 +3658,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add215: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add215 = pt1_mul213 + pt1_mul214)
     logic [W-1:0] c_pt1_add215;
     logic [2:0] fl_c_pt1_add215;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add215 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add215 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul213), .b(dl_c_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[126]), .y(c_pt1_add215), .flags(fl_c_pt1_add215)
     );
@@ -3669,7 +3672,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add220: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add220 = pt1_mul218 + pt1_mul219)
     logic [W-1:0] c_pt1_add220;
     logic [2:0] fl_c_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul218), .b(dl_c_pt1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[131]), .y(c_pt1_add220), .flags(fl_c_pt1_add220)
     );
@@ -3683,7 +3686,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add206: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add206 = pt1_add204 + pt1_mul205)
     logic [W-1:0] c_pt1_add206;
     logic [2:0] fl_c_pt1_add206;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add206 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add206 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add204), .b(dl_c_pt1_mul205), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(c_pt1_add206), .flags(fl_c_pt1_add206)
     );
@@ -3697,7 +3700,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add211: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add211 = pt1_add209 + pt1_mul210)
     logic [W-1:0] c_pt1_add211;
     logic [2:0] fl_c_pt1_add211;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add211 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add211 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add209), .b(dl_c_pt1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[122]), .y(c_pt1_add211), .flags(fl_c_pt1_add211)
     );
@@ -3711,7 +3714,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add217: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add217 = pt1_add215 + pt1_mul216)
     logic [W-1:0] c_pt1_add217;
     logic [2:0] fl_c_pt1_add217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add217 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add215), .b(dl_c_pt1_mul216), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(c_pt1_add217), .flags(fl_c_pt1_add217)
     );
@@ -3725,7 +3728,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add222: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add222 = pt1_add220 + pt1_mul221)
     logic [W-1:0] c_pt1_add222;
     logic [2:0] fl_c_pt1_add222;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add222 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add222 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add220), .b(dl_c_pt1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[133]), .y(c_pt1_add222), .flags(fl_c_pt1_add222)
     );
@@ -3795,7 +3798,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub212: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub212 = pt1_add206 - pt1_add211)
     logic [W-1:0] c_pt1_sub212;
     logic [2:0] fl_c_pt1_sub212;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub212 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub212 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add206), .b(dl_c_pt1_add211), .sub(1'b1),
         .out_valid(op_valid_nc[123]), .y(c_pt1_sub212), .flags(fl_c_pt1_sub212)
     );
@@ -3809,7 +3812,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub223: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub223 = pt1_add217 - pt1_add222)
     logic [W-1:0] c_pt1_sub223;
     logic [2:0] fl_c_pt1_sub223;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub223 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub223 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add217), .b(dl_c_pt1_add222), .sub(1'b1),
         .out_valid(op_valid_nc[134]), .y(c_pt1_sub223), .flags(fl_c_pt1_sub223)
     );
@@ -4096,7 +4099,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub212 + pt1_sub223)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[68]), .a(dl_c_pt1_sub212), .b(dl_c_pt1_sub223), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(c_pt1_vrel), .flags(fl_c_pt1_vrel)
     );
@@ -4110,7 +4113,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_cA_y: fp_add @68/42/36 -> @72/46/40 (friction: t0_cA_y = t0_mul95 - t0_mul96)
     logic [W-1:0] f_t0_cA_y;
     logic [2:0] fl_f_t0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul95), .b(dl_f_t0_mul96), .sub(1'b1),
         .out_valid(op_valid_nc[352]), .y(f_t0_cA_y), .flags(fl_f_t0_cA_y)
     );
@@ -4124,7 +4127,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_cB_x: fp_add @68/42/36 -> @72/46/40 (friction: t0_cB_x = t0_mul101 - t0_mul102)
     logic [W-1:0] f_t0_cB_x;
     logic [2:0] fl_f_t0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul101), .b(dl_f_t0_mul102), .sub(1'b1),
         .out_valid(op_valid_nc[357]), .y(f_t0_cB_x), .flags(fl_f_t0_cB_x)
     );
@@ -4138,7 +4141,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_cB_y: fp_add @68/42/36 -> @72/46/40 (friction: t0_cB_y = t0_mul104 - t0_mul105)
     logic [W-1:0] f_t0_cB_y;
     logic [2:0] fl_f_t0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul104), .b(dl_f_t0_mul105), .sub(1'b1),
         .out_valid(op_valid_nc[360]), .y(f_t0_cB_y), .flags(fl_f_t0_cB_y)
     );
@@ -4152,7 +4155,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_cB_z: fp_add @68/42/36 -> @72/46/40 (friction: t0_cB_z = t0_mul107 - t0_mul108)
     logic [W-1:0] f_t0_cB_z;
     logic [2:0] fl_f_t0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul107), .b(dl_f_t0_mul108), .sub(1'b1),
         .out_valid(op_valid_nc[363]), .y(f_t0_cB_z), .flags(fl_f_t0_cB_z)
     );
@@ -4166,7 +4169,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add112: fp_add @68/42/36 -> @72/46/40 (friction: t0_add112 = t0_mul110 + t0_mul111)
     logic [W-1:0] f_t0_add112;
     logic [2:0] fl_f_t0_add112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add112 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul110), .b(dl_f_t0_mul111), .sub(1'b0),
         .out_valid(op_valid_nc[366]), .y(f_t0_add112), .flags(fl_f_t0_add112)
     );
@@ -4180,7 +4183,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add117: fp_add @68/42/36 -> @72/46/40 (friction: t0_add117 = t0_mul115 + t0_mul116)
     logic [W-1:0] f_t0_add117;
     logic [2:0] fl_f_t0_add117;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add117 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add117 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul115), .b(dl_f_t0_mul116), .sub(1'b0),
         .out_valid(op_valid_nc[370]), .y(f_t0_add117), .flags(fl_f_t0_add117)
     );
@@ -4198,7 +4201,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt1_add225_b = kind_q[72] ? dl_f_t0_mul93 : dl_in_b1[1*W +: W];
     logic [W-1:0] c_pt1_add225;
     logic [2:0] fl_c_pt1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(c_pt1_add225_a), .b(c_pt1_add225_b), .sub(kind_q[72]),
         .out_valid(op_valid_nc[136]), .y(c_pt1_add225), .flags(fl_c_pt1_add225)
     );
@@ -4212,7 +4215,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add119: fp_add @72/46/40 -> @76/50/44 (friction: t0_add119 = t0_add117 + t0_mul118)
     logic [W-1:0] f_t0_add119;
     logic [2:0] fl_f_t0_add119;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add119 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add119 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 26]), .a(dl_f_t0_add117), .b(dl_f_t0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[372]), .y(f_t0_add119), .flags(fl_f_t0_add119)
     );
@@ -4282,7 +4285,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add128: fp_add @75/49/43 -> @79/53/47 (friction: t0_add128 = t0_mul126 + t0_mul127)
     logic [W-1:0] f_t0_add128;
     logic [2:0] fl_f_t0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 29]), .a(dl_f_t0_mul126), .b(dl_f_t0_mul127), .sub(1'b0),
         .out_valid(op_valid_nc[380]), .y(f_t0_add128), .flags(fl_f_t0_add128)
     );
@@ -4332,7 +4335,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt1_add228_b = kind_q[79] ? dl_f_t0_mul99 : dl_c_pt1_delta0[0*W +: W];
     logic [W-1:0] c_pt1_add228;
     logic [2:0] fl_c_pt1_add228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add228 (
         .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(c_pt1_add228_a), .b(c_pt1_add228_b), .sub(kind_q[79]),
         .out_valid(op_valid_nc[139]), .y(c_pt1_add228), .flags(fl_c_pt1_add228)
     );
@@ -4346,7 +4349,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add123: fp_add @79/79/79 -> @83/83/83 (friction: t0_add123 = t0_mul121 + t0_mul122)
     logic [W-1:0] f_t0_add123;
     logic [2:0] fl_f_t0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[pgs_fp_pkg::tmax(79, 2*MAN_BITS + 29)]), .a(dl_f_t0_mul121), .b(dl_f_t0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[375]), .y(f_t0_add123), .flags(fl_f_t0_add123)
     );
@@ -4360,7 +4363,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add130: fp_add @79/53/47 -> @83/57/51 (friction: t0_add130 = t0_add128 + t0_mul129)
     logic [W-1:0] f_t0_add130;
     logic [2:0] fl_f_t0_add130;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add130 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add130 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 33]), .a(dl_f_t0_add128), .b(dl_f_t0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[382]), .y(f_t0_add130), .flags(fl_f_t0_add130)
     );
@@ -4409,7 +4412,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt1_delta_b = kind_q[84] ? dl_f_t0_mul113 : dl_in_lam1[1*W +: W];
     logic [W-1:0] c_pt1_delta;
     logic [2:0] fl_c_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(c_pt1_delta_a), .b(c_pt1_delta_b), .sub(!kind_q[84]),
         .out_valid(op_valid_nc[141]), .y(c_pt1_delta), .flags(fl_c_pt1_delta)
     );
@@ -4423,7 +4426,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add125: fp_add @86/86/86 -> @90/90/90 (friction: t0_add125 = t0_add123 + t0_mul124)
     logic [W-1:0] f_t0_add125;
     logic [2:0] fl_f_t0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)]), .a(dl_f_t0_add123), .b(dl_f_t0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[377]), .y(f_t0_add125), .flags(fl_f_t0_add125)
     );
@@ -4678,7 +4681,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt1_add241_b = kind_q[91] ? dl_f_t0_add119 : dl_c_pt1_mul238;
     logic [W-1:0] c_pt1_add241;
     logic [2:0] fl_c_pt1_add241;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add241 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add241 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add241_a), .b(c_pt1_add241_b), .sub(kind_q[91]),
         .out_valid(op_valid_nc[151]), .y(c_pt1_add241), .flags(fl_c_pt1_add241)
     );
@@ -4696,7 +4699,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt1_add242_b = kind_q[91] ? dl_f_t0_add130 : dl_c_pt1_mul239;
     logic [W-1:0] c_pt1_add242;
     logic [2:0] fl_c_pt1_add242;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add242 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add242 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add242_a), .b(c_pt1_add242_b), .sub(kind_q[91]),
         .out_valid(op_valid_nc[152]), .y(c_pt1_add242), .flags(fl_c_pt1_add242)
     );
@@ -4710,7 +4713,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add243: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add243 = pt0_vA_z + pt1_mul240)
     logic [W-1:0] c_pt1_add243;
     logic [2:0] fl_c_pt1_add243;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add243 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add243 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vA_z[1*W +: W]), .b(dl_c_pt1_mul240), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(c_pt1_add243), .flags(fl_c_pt1_add243)
     );
@@ -4724,7 +4727,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add250: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add250 = pt0_wA_x + pt1_mul247)
     logic [W-1:0] c_pt1_add250;
     logic [2:0] fl_c_pt1_add250;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add250 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add250 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wA_x[1*W +: W]), .b(dl_c_pt1_mul247), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(c_pt1_add250), .flags(fl_c_pt1_add250)
     );
@@ -4738,7 +4741,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add251: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add251 = pt0_wA_y + pt1_mul248)
     logic [W-1:0] c_pt1_add251;
     logic [2:0] fl_c_pt1_add251;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add251 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add251 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wA_y[1*W +: W]), .b(dl_c_pt1_mul248), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(c_pt1_add251), .flags(fl_c_pt1_add251)
     );
@@ -4752,7 +4755,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_add252: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add252 = pt0_wA_z + pt1_mul249)
     logic [W-1:0] c_pt1_add252;
     logic [2:0] fl_c_pt1_add252;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add252 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add252 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wA_z[1*W +: W]), .b(dl_c_pt1_mul249[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[159]), .y(c_pt1_add252), .flags(fl_c_pt1_add252)
     );
@@ -4766,7 +4769,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub259: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub259 = pt0_vB_x - pt1_mul256)
     logic [W-1:0] c_pt1_sub259;
     logic [2:0] fl_c_pt1_sub259;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub259 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub259 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vB_x[1*W +: W]), .b(dl_c_pt1_mul256[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(c_pt1_sub259), .flags(fl_c_pt1_sub259)
     );
@@ -4780,7 +4783,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub260: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub260 = pt0_vB_y - pt1_mul257)
     logic [W-1:0] c_pt1_sub260;
     logic [2:0] fl_c_pt1_sub260;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub260 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub260 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vB_y[1*W +: W]), .b(dl_c_pt1_mul257[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(c_pt1_sub260), .flags(fl_c_pt1_sub260)
     );
@@ -4794,7 +4797,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub261: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub261 = pt0_vB_z - pt1_mul258)
     logic [W-1:0] c_pt1_sub261;
     logic [2:0] fl_c_pt1_sub261;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub261 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub261 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vB_z[1*W +: W]), .b(dl_c_pt1_mul258[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[165]), .y(c_pt1_sub261), .flags(fl_c_pt1_sub261)
     );
@@ -4808,7 +4811,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub268: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub268 = pt0_wB_x - pt1_mul265)
     logic [W-1:0] c_pt1_sub268;
     logic [2:0] fl_c_pt1_sub268;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub268 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub268 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wB_x[1*W +: W]), .b(dl_c_pt1_mul265[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(c_pt1_sub268), .flags(fl_c_pt1_sub268)
     );
@@ -4822,7 +4825,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub269: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub269 = pt0_wB_y - pt1_mul266)
     logic [W-1:0] c_pt1_sub269;
     logic [2:0] fl_c_pt1_sub269;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub269 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub269 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wB_y[1*W +: W]), .b(dl_c_pt1_mul266[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(c_pt1_sub269), .flags(fl_c_pt1_sub269)
     );
@@ -4836,7 +4839,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt1_sub270: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub270 = pt0_wB_z - pt1_mul267)
     logic [W-1:0] c_pt1_sub270;
     logic [2:0] fl_c_pt1_sub270;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub270 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub270 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wB_z[1*W +: W]), .b(dl_c_pt1_mul267[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(c_pt1_sub270), .flags(fl_c_pt1_sub270)
     );
@@ -5220,7 +5223,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_u: fp_add @95/95/95 -> @99/99/99 (friction: t0_u = t0_sub120 + t0_sub131)
     logic [W-1:0] f_t0_u;
     logic [2:0] fl_f_t0_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_u (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[95]), .a(dl_c_pt1_add241), .b(dl_c_pt1_add242), .sub(1'b0),
         .out_valid(op_valid_nc[383]), .y(f_t0_u), .flags(fl_f_t0_u)
     );
@@ -5238,7 +5241,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt2_add301_b = kind_q[98] ? dl_c_pt2_mul310 : dl_c_pt2_mul300[0*W +: W];
     logic [W-1:0] c_pt2_add301;
     logic [2:0] fl_c_pt2_add301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add301 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(c_pt2_add301_a), .b(c_pt2_add301_b), .sub(kind_q[98]),
         .out_valid(op_valid_nc[198]), .y(c_pt2_add301), .flags(fl_c_pt2_add301)
     );
@@ -5256,7 +5259,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt2_add306_b = kind_q[98] ? dl_f_t1_mul199 : dl_c_pt2_mul305[0*W +: W];
     logic [W-1:0] c_pt2_add306;
     logic [2:0] fl_c_pt2_add306;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add306 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add306 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(c_pt2_add306_a), .b(c_pt2_add306_b), .sub(kind_q[98]),
         .out_valid(op_valid_nc[203]), .y(c_pt2_add306), .flags(fl_c_pt2_add306)
     );
@@ -5274,7 +5277,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt2_add312_b = kind_q[98] ? dl_f_t1_mul202 : dl_c_pt2_mul311[0*W +: W];
     logic [W-1:0] c_pt2_add312;
     logic [2:0] fl_c_pt2_add312;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add312 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add312 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(c_pt2_add312_a), .b(c_pt2_add312_b), .sub(kind_q[98]),
         .out_valid(op_valid_nc[209]), .y(c_pt2_add312), .flags(fl_c_pt2_add312)
     );
@@ -5288,7 +5291,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add317: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add317 = pt2_mul315 + pt2_mul316; friction: t1_cA_z = t1_mul195 - t1_mul196)
     logic [W-1:0] c_pt2_add317;
     logic [2:0] fl_c_pt2_add317;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add317 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add317 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul315), .b(dl_c_pt2_mul316), .sub(kind_q[98]),
         .out_valid(op_valid_nc[214]), .y(c_pt2_add317), .flags(fl_c_pt2_add317)
     );
@@ -5327,7 +5330,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt2_add303_b = kind_q[102] ? dl_f_t0_delta0 : dl_c_pt2_mul302[0*W +: W];
     logic [W-1:0] c_pt2_add303;
     logic [2:0] fl_c_pt2_add303;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add303 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add303 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(c_pt2_add303_a), .b(c_pt2_add303_b), .sub(1'b0),
         .out_valid(op_valid_nc[200]), .y(c_pt2_add303), .flags(fl_c_pt2_add303)
     );
@@ -5345,7 +5348,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt2_add308_b = kind_q[102] ? dl_f_t1_mul205 : dl_c_pt2_mul307[0*W +: W];
     logic [W-1:0] c_pt2_add308;
     logic [2:0] fl_c_pt2_add308;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add308 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add308 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(c_pt2_add308_a), .b(c_pt2_add308_b), .sub(kind_q[102]),
         .out_valid(op_valid_nc[205]), .y(c_pt2_add308), .flags(fl_c_pt2_add308)
     );
@@ -5361,7 +5364,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt2_add314_a = kind_q[102] ? dl_c_pt2_mul311[1*W +: W] : dl_c_pt2_add312[0*W +: W];
     logic [W-1:0] c_pt2_add314;
     logic [2:0] fl_c_pt2_add314;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add314 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add314 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(c_pt2_add314_a), .b(dl_c_pt2_mul313), .sub(kind_q[102]),
         .out_valid(op_valid_nc[211]), .y(c_pt2_add314), .flags(fl_c_pt2_add314)
     );
@@ -5375,7 +5378,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add319: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add319 = pt2_add317 + pt2_mul318)
     logic [W-1:0] c_pt2_add319;
     logic [2:0] fl_c_pt2_add319;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add319 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add319 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[102]), .a(dl_c_pt2_add317[0*W +: W]), .b(dl_c_pt2_mul318[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(c_pt2_add319), .flags(fl_c_pt2_add319)
     );
@@ -5389,7 +5392,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub309: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub309 = pt2_add303 - pt2_add308)
     logic [W-1:0] c_pt2_sub309;
     logic [2:0] fl_c_pt2_sub309;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub309 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub309 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[106]), .a(dl_c_pt2_add303), .b(dl_c_pt2_add308[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[206]), .y(c_pt2_sub309), .flags(fl_c_pt2_sub309)
     );
@@ -5403,7 +5406,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub320: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub320 = pt2_add314 - pt2_add319)
     logic [W-1:0] c_pt2_sub320;
     logic [2:0] fl_c_pt2_sub320;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub320 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub320 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[106]), .a(dl_c_pt2_add314[0*W +: W]), .b(dl_c_pt2_add319), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(c_pt2_sub320), .flags(fl_c_pt2_sub320)
     );
@@ -5444,7 +5447,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_delta: fp_add @108/108/108 -> @112/112/112 (friction: t0_delta = t0_lam_new - lamT0)
     logic [W-1:0] f_t0_delta;
     logic [2:0] fl_f_t0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[108]), .a(dl_f_t0_lam_new_min), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[387]), .y(f_t0_delta), .flags(fl_f_t0_delta)
     );
@@ -5458,7 +5461,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub309 + pt2_sub320)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[110]), .a(dl_c_pt2_sub309), .b(dl_c_pt2_sub320), .sub(1'b0),
         .out_valid(op_valid_nc[218]), .y(c_pt2_vrel), .flags(fl_c_pt2_vrel)
     );
@@ -5647,7 +5650,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add322: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add322 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add322;
     logic [2:0] fl_c_pt2_add322;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add322 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add322 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[114]), .a(dl_c_pt2_vrel), .b(dl_in_b2[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(c_pt2_add322), .flags(fl_c_pt2_add322)
     );
@@ -5661,7 +5664,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add147: fp_add @115/115/115 -> @119/119/119 (friction: t0_add147 = vA_x + t0_mul144)
     logic [W-1:0] f_t0_add147;
     logic [2:0] fl_f_t0_add147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add147 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vA_x[4*W +: W]), .b(dl_f_t0_mul144), .sub(1'b0),
         .out_valid(op_valid_nc[391]), .y(f_t0_add147), .flags(fl_f_t0_add147)
     );
@@ -5675,7 +5678,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add148: fp_add @115/115/115 -> @119/119/119 (friction: t0_add148 = vA_y + t0_mul145)
     logic [W-1:0] f_t0_add148;
     logic [2:0] fl_f_t0_add148;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add148 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add148 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vA_y[4*W +: W]), .b(dl_f_t0_mul145), .sub(1'b0),
         .out_valid(op_valid_nc[392]), .y(f_t0_add148), .flags(fl_f_t0_add148)
     );
@@ -5689,7 +5692,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add149: fp_add @115/115/115 -> @119/119/119 (friction: t0_add149 = vA_z + t0_mul146)
     logic [W-1:0] f_t0_add149;
     logic [2:0] fl_f_t0_add149;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add149 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add149 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vA_z[4*W +: W]), .b(dl_f_t0_mul146), .sub(1'b0),
         .out_valid(op_valid_nc[393]), .y(f_t0_add149), .flags(fl_f_t0_add149)
     );
@@ -5703,7 +5706,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add159: fp_add @115/115/115 -> @119/119/119 (friction: t0_add159 = wA_x + t0_mul156)
     logic [W-1:0] f_t0_add159;
     logic [2:0] fl_f_t0_add159;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add159 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add159 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wA_x[4*W +: W]), .b(dl_f_t0_mul156), .sub(1'b0),
         .out_valid(op_valid_nc[397]), .y(f_t0_add159), .flags(fl_f_t0_add159)
     );
@@ -5717,7 +5720,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add160: fp_add @115/115/115 -> @119/119/119 (friction: t0_add160 = wA_y + t0_mul157)
     logic [W-1:0] f_t0_add160;
     logic [2:0] fl_f_t0_add160;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add160 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add160 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wA_y[4*W +: W]), .b(dl_f_t0_mul157), .sub(1'b0),
         .out_valid(op_valid_nc[398]), .y(f_t0_add160), .flags(fl_f_t0_add160)
     );
@@ -5731,7 +5734,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_add161: fp_add @115/115/115 -> @119/119/119 (friction: t0_add161 = wA_z + t0_mul158)
     logic [W-1:0] f_t0_add161;
     logic [2:0] fl_f_t0_add161;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add161 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add161 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wA_z[4*W +: W]), .b(dl_f_t0_mul158), .sub(1'b0),
         .out_valid(op_valid_nc[399]), .y(f_t0_add161), .flags(fl_f_t0_add161)
     );
@@ -5745,7 +5748,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_sub171: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub171 = vB_x - t0_mul168)
     logic [W-1:0] f_t0_sub171;
     logic [2:0] fl_f_t0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vB_x[4*W +: W]), .b(dl_f_t0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[403]), .y(f_t0_sub171), .flags(fl_f_t0_sub171)
     );
@@ -5759,7 +5762,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_sub172: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub172 = vB_y - t0_mul169)
     logic [W-1:0] f_t0_sub172;
     logic [2:0] fl_f_t0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vB_y[4*W +: W]), .b(dl_f_t0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[404]), .y(f_t0_sub172), .flags(fl_f_t0_sub172)
     );
@@ -5773,7 +5776,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_sub173: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub173 = vB_z - t0_mul170)
     logic [W-1:0] f_t0_sub173;
     logic [2:0] fl_f_t0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vB_z[4*W +: W]), .b(dl_f_t0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[405]), .y(f_t0_sub173), .flags(fl_f_t0_sub173)
     );
@@ -5787,7 +5790,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_sub183: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub183 = wB_x - t0_mul180)
     logic [W-1:0] f_t0_sub183;
     logic [2:0] fl_f_t0_sub183;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub183 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub183 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wB_x[4*W +: W]), .b(dl_f_t0_mul180), .sub(1'b1),
         .out_valid(op_valid_nc[409]), .y(f_t0_sub183), .flags(fl_f_t0_sub183)
     );
@@ -5801,7 +5804,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_sub184: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub184 = wB_y - t0_mul181)
     logic [W-1:0] f_t0_sub184;
     logic [2:0] fl_f_t0_sub184;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub184 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub184 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wB_y[4*W +: W]), .b(dl_f_t0_mul181), .sub(1'b1),
         .out_valid(op_valid_nc[410]), .y(f_t0_sub184), .flags(fl_f_t0_sub184)
     );
@@ -5815,7 +5818,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t0_sub185: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub185 = wB_z - t0_mul182)
     logic [W-1:0] f_t0_sub185;
     logic [2:0] fl_f_t0_sub185;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub185 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub185 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wB_z[4*W +: W]), .b(dl_f_t0_mul182), .sub(1'b1),
         .out_valid(op_valid_nc[411]), .y(f_t0_sub185), .flags(fl_f_t0_sub185)
     );
@@ -6099,7 +6102,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add325: fp_add @121/121/121 -> @125/125/125 (contact: pt2_add325 = pt2_lam_kept + pt2_delta0)
     logic [W-1:0] c_pt2_add325;
     logic [2:0] fl_c_pt2_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[121]), .a(dl_c_pt2_lam_kept), .b(dl_c_pt2_delta0[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[222]), .y(c_pt2_add325), .flags(fl_c_pt2_add325)
     );
@@ -6113,7 +6116,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add209: fp_add @122/122/122 -> @126/126/126 (friction: t1_add209 = t1_mul207 + t1_mul208)
     logic [W-1:0] f_t1_add209;
     logic [2:0] fl_f_t1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul207), .b(dl_f_t1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[419]), .y(f_t1_add209), .flags(fl_f_t1_add209)
     );
@@ -6127,7 +6130,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add214: fp_add @122/122/122 -> @126/126/126 (friction: t1_add214 = t1_mul212 + t1_mul213)
     logic [W-1:0] f_t1_add214;
     logic [2:0] fl_f_t1_add214;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add214 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add214 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul212), .b(dl_f_t1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[423]), .y(f_t1_add214), .flags(fl_f_t1_add214)
     );
@@ -6141,7 +6144,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add220: fp_add @122/122/122 -> @126/126/126 (friction: t1_add220 = t1_mul218 + t1_mul219)
     logic [W-1:0] f_t1_add220;
     logic [2:0] fl_f_t1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul218), .b(dl_f_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[429]), .y(f_t1_add220), .flags(fl_f_t1_add220)
     );
@@ -6155,7 +6158,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add225: fp_add @122/122/122 -> @126/126/126 (friction: t1_add225 = t1_mul223 + t1_mul224)
     logic [W-1:0] f_t1_add225;
     logic [2:0] fl_f_t1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul223), .b(dl_f_t1_mul224), .sub(1'b0),
         .out_valid(op_valid_nc[434]), .y(f_t1_add225), .flags(fl_f_t1_add225)
     );
@@ -6190,7 +6193,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt2_delta_b = kind_q[126] ? dl_f_t1_mul210 : dl_in_lam2[1*W +: W];
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(c_pt2_delta_a), .b(c_pt2_delta_b), .sub(!kind_q[126]),
         .out_valid(op_valid_nc[224]), .y(c_pt2_delta), .flags(fl_c_pt2_delta)
     );
@@ -6204,7 +6207,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add216: fp_add @126/126/126 -> @130/130/130 (friction: t1_add216 = t1_add214 + t1_mul215)
     logic [W-1:0] f_t1_add216;
     logic [2:0] fl_f_t1_add216;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add216 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add216 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[126]), .a(dl_f_t1_add214), .b(dl_f_t1_mul215), .sub(1'b0),
         .out_valid(op_valid_nc[425]), .y(f_t1_add216), .flags(fl_f_t1_add216)
     );
@@ -6218,7 +6221,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add222: fp_add @126/126/126 -> @130/130/130 (friction: t1_add222 = t1_add220 + t1_mul221)
     logic [W-1:0] f_t1_add222;
     logic [2:0] fl_f_t1_add222;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add222 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add222 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[126]), .a(dl_f_t1_add220), .b(dl_f_t1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[431]), .y(f_t1_add222), .flags(fl_f_t1_add222)
     );
@@ -6232,7 +6235,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add227: fp_add @126/126/126 -> @130/130/130 (friction: t1_add227 = t1_add225 + t1_mul226)
     logic [W-1:0] f_t1_add227;
     logic [2:0] fl_f_t1_add227;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add227 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add227 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[126]), .a(dl_f_t1_add225), .b(dl_f_t1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[436]), .y(f_t1_add227), .flags(fl_f_t1_add227)
     );
@@ -6458,7 +6461,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_sub217: fp_add @130/130/130 -> @134/134/134 (friction: t1_sub217 = t1_add211 - t1_add216)
     logic [W-1:0] f_t1_sub217;
     logic [2:0] fl_f_t1_sub217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub217 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[130]), .a(dl_c_pt2_delta), .b(dl_f_t1_add216), .sub(1'b1),
         .out_valid(op_valid_nc[426]), .y(f_t1_sub217), .flags(fl_f_t1_sub217)
     );
@@ -6472,7 +6475,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_sub228: fp_add @130/130/130 -> @134/134/134 (friction: t1_sub228 = t1_add222 - t1_add227)
     logic [W-1:0] f_t1_sub228;
     logic [2:0] fl_f_t1_sub228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub228 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[130]), .a(dl_f_t1_add222), .b(dl_f_t1_add227), .sub(1'b1),
         .out_valid(op_valid_nc[437]), .y(f_t1_sub228), .flags(fl_f_t1_sub228)
     );
@@ -6486,7 +6489,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add338: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add338 = pt1_vA_x + pt2_mul335)
     logic [W-1:0] c_pt2_add338;
     logic [2:0] fl_c_pt2_add338;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add338 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add338 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_x[1*W +: W]), .b(dl_c_pt2_mul335[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[234]), .y(c_pt2_add338), .flags(fl_c_pt2_add338)
     );
@@ -6500,7 +6503,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add339: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add339 = pt1_vA_y + pt2_mul336)
     logic [W-1:0] c_pt2_add339;
     logic [2:0] fl_c_pt2_add339;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add339 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add339 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_y[1*W +: W]), .b(dl_c_pt2_mul336[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[235]), .y(c_pt2_add339), .flags(fl_c_pt2_add339)
     );
@@ -6514,7 +6517,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add340: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add340 = pt1_vA_z + pt2_mul337)
     logic [W-1:0] c_pt2_add340;
     logic [2:0] fl_c_pt2_add340;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add340 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add340 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_z[1*W +: W]), .b(dl_c_pt2_mul337[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[236]), .y(c_pt2_add340), .flags(fl_c_pt2_add340)
     );
@@ -6528,7 +6531,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add347: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add347 = pt1_wA_x + pt2_mul344)
     logic [W-1:0] c_pt2_add347;
     logic [2:0] fl_c_pt2_add347;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add347 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add347 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_x[1*W +: W]), .b(dl_c_pt2_mul344[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[240]), .y(c_pt2_add347), .flags(fl_c_pt2_add347)
     );
@@ -6542,7 +6545,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add348: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add348 = pt1_wA_y + pt2_mul345)
     logic [W-1:0] c_pt2_add348;
     logic [2:0] fl_c_pt2_add348;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add348 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add348 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_y[1*W +: W]), .b(dl_c_pt2_mul345[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[241]), .y(c_pt2_add348), .flags(fl_c_pt2_add348)
     );
@@ -6556,7 +6559,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_add349: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add349 = pt1_wA_z + pt2_mul346)
     logic [W-1:0] c_pt2_add349;
     logic [2:0] fl_c_pt2_add349;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add349 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add349 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_z[1*W +: W]), .b(dl_c_pt2_mul346[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[242]), .y(c_pt2_add349), .flags(fl_c_pt2_add349)
     );
@@ -6570,7 +6573,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub356: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub356 = pt1_vB_x - pt2_mul353)
     logic [W-1:0] c_pt2_sub356;
     logic [2:0] fl_c_pt2_sub356;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub356 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub356 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_x[1*W +: W]), .b(dl_c_pt2_mul353[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[246]), .y(c_pt2_sub356), .flags(fl_c_pt2_sub356)
     );
@@ -6584,7 +6587,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub357: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub357 = pt1_vB_y - pt2_mul354)
     logic [W-1:0] c_pt2_sub357;
     logic [2:0] fl_c_pt2_sub357;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub357 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub357 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_y[1*W +: W]), .b(dl_c_pt2_mul354[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[247]), .y(c_pt2_sub357), .flags(fl_c_pt2_sub357)
     );
@@ -6598,7 +6601,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub358: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub358 = pt1_vB_z - pt2_mul355)
     logic [W-1:0] c_pt2_sub358;
     logic [2:0] fl_c_pt2_sub358;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub358 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub358 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_z[1*W +: W]), .b(dl_c_pt2_mul355[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[248]), .y(c_pt2_sub358), .flags(fl_c_pt2_sub358)
     );
@@ -6612,7 +6615,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub365: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub365 = pt1_wB_x - pt2_mul362)
     logic [W-1:0] c_pt2_sub365;
     logic [2:0] fl_c_pt2_sub365;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub365 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub365 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_x[1*W +: W]), .b(dl_c_pt2_mul362[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(c_pt2_sub365), .flags(fl_c_pt2_sub365)
     );
@@ -6626,7 +6629,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub366: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub366 = pt1_wB_y - pt2_mul363)
     logic [W-1:0] c_pt2_sub366;
     logic [2:0] fl_c_pt2_sub366;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub366 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub366 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_y[1*W +: W]), .b(dl_c_pt2_mul363[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(c_pt2_sub366), .flags(fl_c_pt2_sub366)
     );
@@ -6640,7 +6643,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt2_sub367: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub367 = pt1_wB_z - pt2_mul364)
     logic [W-1:0] c_pt2_sub367;
     logic [2:0] fl_c_pt2_sub367;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub367 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub367 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_z[1*W +: W]), .b(dl_c_pt2_mul364), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(c_pt2_sub367), .flags(fl_c_pt2_sub367)
     );
@@ -6654,7 +6657,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_u: fp_add @134/134/134 -> @138/138/138 (friction: t1_u = t1_sub217 + t1_sub228)
     logic [W-1:0] f_t1_u;
     logic [2:0] fl_f_t1_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_u (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[134]), .a(dl_f_t1_sub217), .b(dl_f_t1_sub228), .sub(1'b0),
         .out_valid(op_valid_nc[438]), .y(f_t1_u), .flags(fl_f_t1_u)
     );
@@ -6941,7 +6944,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add398: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add398 = pt3_mul396 + pt3_mul397)
     logic [W-1:0] c_pt3_add398;
     logic [2:0] fl_c_pt3_add398;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add398 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add398 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul396), .b(dl_c_pt3_mul397), .sub(1'b0),
         .out_valid(op_valid_nc[281]), .y(c_pt3_add398), .flags(fl_c_pt3_add398)
     );
@@ -6955,7 +6958,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add403: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add403 = pt3_mul401 + pt3_mul402)
     logic [W-1:0] c_pt3_add403;
     logic [2:0] fl_c_pt3_add403;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add403 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add403 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul401), .b(dl_c_pt3_mul402), .sub(1'b0),
         .out_valid(op_valid_nc[286]), .y(c_pt3_add403), .flags(fl_c_pt3_add403)
     );
@@ -6969,7 +6972,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add409: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add409 = pt3_mul407 + pt3_mul408)
     logic [W-1:0] c_pt3_add409;
     logic [2:0] fl_c_pt3_add409;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add409 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add409 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul407), .b(dl_c_pt3_mul408), .sub(1'b0),
         .out_valid(op_valid_nc[292]), .y(c_pt3_add409), .flags(fl_c_pt3_add409)
     );
@@ -6983,7 +6986,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add414: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add414 = pt3_mul412 + pt3_mul413)
     logic [W-1:0] c_pt3_add414;
     logic [2:0] fl_c_pt3_add414;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add414 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add414 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul412), .b(dl_c_pt3_mul413), .sub(1'b0),
         .out_valid(op_valid_nc[297]), .y(c_pt3_add414), .flags(fl_c_pt3_add414)
     );
@@ -6997,7 +7000,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add232: fp_add @141/141/141 -> @145/145/145 (friction: t1_add232 = lamT1 + t1_delta0)
     logic [W-1:0] f_t1_add232;
     logic [2:0] fl_f_t1_add232;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add232 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add232 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[141]), .a(dl_in_lamT1[0*W +: W]), .b(dl_f_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[440]), .y(f_t1_add232), .flags(fl_f_t1_add232)
     );
@@ -7011,7 +7014,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add400: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add400 = pt3_add398 + pt3_mul399)
     logic [W-1:0] c_pt3_add400;
     logic [2:0] fl_c_pt3_add400;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add400 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add400 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add398), .b(dl_c_pt3_mul399), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(c_pt3_add400), .flags(fl_c_pt3_add400)
     );
@@ -7025,7 +7028,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add405: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add405 = pt3_add403 + pt3_mul404)
     logic [W-1:0] c_pt3_add405;
     logic [2:0] fl_c_pt3_add405;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add405 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add405 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add403), .b(dl_c_pt3_mul404), .sub(1'b0),
         .out_valid(op_valid_nc[288]), .y(c_pt3_add405), .flags(fl_c_pt3_add405)
     );
@@ -7039,7 +7042,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add411: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add411 = pt3_add409 + pt3_mul410)
     logic [W-1:0] c_pt3_add411;
     logic [2:0] fl_c_pt3_add411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add411 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add409), .b(dl_c_pt3_mul410), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(c_pt3_add411), .flags(fl_c_pt3_add411)
     );
@@ -7053,7 +7056,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_add416: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add416 = pt3_add414 + pt3_mul415)
     logic [W-1:0] c_pt3_add416;
     logic [2:0] fl_c_pt3_add416;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add416 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add416 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add414), .b(dl_c_pt3_mul415), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(c_pt3_add416), .flags(fl_c_pt3_add416)
     );
@@ -7094,7 +7097,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_delta: fp_add @147/147/147 -> @151/151/151 (friction: t1_delta = t1_lam_new - lamT1)
     logic [W-1:0] f_t1_delta;
     logic [2:0] fl_f_t1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[147]), .a(dl_f_t1_lam_new_min), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[443]), .y(f_t1_delta), .flags(fl_f_t1_delta)
     );
@@ -7108,7 +7111,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_sub406: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub406 = pt3_add400 - pt3_add405)
     logic [W-1:0] c_pt3_sub406;
     logic [2:0] fl_c_pt3_sub406;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub406 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub406 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[148]), .a(dl_c_pt3_add400), .b(dl_c_pt3_add405), .sub(1'b1),
         .out_valid(op_valid_nc[289]), .y(c_pt3_sub406), .flags(fl_c_pt3_sub406)
     );
@@ -7122,7 +7125,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_sub417: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub417 = pt3_add411 - pt3_add416)
     logic [W-1:0] c_pt3_sub417;
     logic [2:0] fl_c_pt3_sub417;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub417 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub417 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[148]), .a(dl_c_pt3_add411), .b(dl_c_pt3_add416), .sub(1'b1),
         .out_valid(op_valid_nc[300]), .y(c_pt3_sub417), .flags(fl_c_pt3_sub417)
     );
@@ -7227,7 +7230,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_vrel: fp_add @152/152/152 -> @156/156/156 (contact: pt3_vrel = pt3_sub406 + pt3_sub417)
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[152]), .a(dl_c_pt3_sub406), .b(dl_c_pt3_sub417), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(c_pt3_vrel), .flags(fl_c_pt3_vrel)
     );
@@ -7241,7 +7244,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add256: fp_add @154/154/154 -> @158/158/158 (friction: t1_add256 = t0_wA_x + t1_mul253)
     logic [W-1:0] f_t1_add256;
     logic [2:0] fl_f_t1_add256;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add256 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add256 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wA_x[1*W +: W]), .b(dl_f_t1_mul253), .sub(1'b0),
         .out_valid(op_valid_nc[447]), .y(f_t1_add256), .flags(fl_f_t1_add256)
     );
@@ -7255,7 +7258,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_add257: fp_add @154/154/154 -> @158/158/158 (friction: t1_add257 = t0_wA_y + t1_mul254)
     logic [W-1:0] f_t1_add257;
     logic [2:0] fl_f_t1_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wA_y[1*W +: W]), .b(dl_f_t1_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[448]), .y(f_t1_add257), .flags(fl_f_t1_add257)
     );
@@ -7269,7 +7272,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_sub280: fp_add @154/154/154 -> @158/158/158 (friction: t1_sub280 = t0_wB_x - t1_mul277)
     logic [W-1:0] f_t1_sub280;
     logic [2:0] fl_f_t1_sub280;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub280 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub280 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wB_x[1*W +: W]), .b(dl_f_t1_mul277), .sub(1'b1),
         .out_valid(op_valid_nc[452]), .y(f_t1_sub280), .flags(fl_f_t1_sub280)
     );
@@ -7283,7 +7286,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_sub281: fp_add @154/154/154 -> @158/158/158 (friction: t1_sub281 = t0_wB_y - t1_mul278)
     logic [W-1:0] f_t1_sub281;
     logic [2:0] fl_f_t1_sub281;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub281 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub281 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wB_y[1*W +: W]), .b(dl_f_t1_mul278), .sub(1'b1),
         .out_valid(op_valid_nc[453]), .y(f_t1_sub281), .flags(fl_f_t1_sub281)
     );
@@ -7297,7 +7300,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_t1_sub282: fp_add @154/154/154 -> @158/158/158 (friction: t1_sub282 = t0_wB_z - t1_mul279)
     logic [W-1:0] f_t1_sub282;
     logic [2:0] fl_f_t1_sub282;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub282 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub282 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wB_z[1*W +: W]), .b(dl_f_t1_mul279), .sub(1'b1),
         .out_valid(op_valid_nc[454]), .y(f_t1_sub282), .flags(fl_f_t1_sub282)
     );
@@ -7315,7 +7318,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add419_b = kind_q[156] ? dl_f_t1_mul255 : dl_in_b3[1*W +: W];
     logic [W-1:0] c_pt3_add419;
     logic [2:0] fl_c_pt3_add419;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add419 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add419 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(c_pt3_add419_a), .b(c_pt3_add419_b), .sub(1'b0),
         .out_valid(op_valid_nc[302]), .y(c_pt3_add419), .flags(fl_c_pt3_add419)
     );
@@ -7473,7 +7476,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_spin_add289: fp_add @161/161/161 -> @165/165/165 (friction: spin_add289 = spin_mul287 + spin_mul288)
     logic [W-1:0] f_spin_add289;
     logic [2:0] fl_f_spin_add289;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add289 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add289 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[161]), .a(dl_f_spin_mul287), .b(dl_f_spin_mul288), .sub(1'b0),
         .out_valid(op_valid_nc[457]), .y(f_spin_add289), .flags(fl_f_spin_add289)
     );
@@ -7487,7 +7490,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_spin_add301: fp_add @161/161/161 -> @165/165/165 (friction: spin_add301 = spin_mul299 + spin_mul300)
     logic [W-1:0] f_spin_add301;
     logic [2:0] fl_f_spin_add301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add301 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[161]), .a(dl_f_spin_mul299), .b(dl_f_spin_mul300), .sub(1'b0),
         .out_valid(op_valid_nc[463]), .y(f_spin_add301), .flags(fl_f_spin_add301)
     );
@@ -7503,7 +7506,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add422_a = kind_q[163] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_lam_kept;
     logic [W-1:0] c_pt3_add422;
     logic [2:0] fl_c_pt3_add422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add422 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(c_pt3_add422_a), .b(dl_c_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[305]), .y(c_pt3_add422), .flags(fl_c_pt3_add422)
     );
@@ -7517,7 +7520,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_spin_add291: fp_add @165/165/165 -> @169/169/169 (friction: spin_add291 = spin_add289 + spin_mul290)
     logic [W-1:0] f_spin_add291;
     logic [2:0] fl_f_spin_add291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add291 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[165]), .a(dl_f_spin_add289), .b(dl_f_spin_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[459]), .y(f_spin_add291), .flags(fl_f_spin_add291)
     );
@@ -7531,7 +7534,7 @@ module pgs_shared_pipe_soft_tb #(
     // f_spin_add303: fp_add @165/165/165 -> @169/169/169 (friction: spin_add303 = spin_add301 + spin_mul302)
     logic [W-1:0] f_spin_add303;
     logic [2:0] fl_f_spin_add303;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add303 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add303 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[165]), .a(dl_f_spin_add301), .b(dl_f_spin_mul302), .sub(1'b0),
         .out_valid(op_valid_nc[465]), .y(f_spin_add303), .flags(fl_f_spin_add303)
     );
@@ -7569,7 +7572,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[168]), .a(dl_c_pt3_lam_new_max), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[307]), .y(c_pt3_delta), .flags(fl_c_pt3_delta)
     );
@@ -7825,7 +7828,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add435_a = kind_q[175] ? dl_f_t0_vA_y[1*W +: W] : dl_c_pt2_vA_x[1*W +: W];
     logic [W-1:0] c_pt3_add435;
     logic [2:0] fl_c_pt3_add435;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add435 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add435 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add435_a), .b(dl_c_pt3_mul432), .sub(1'b0),
         .out_valid(op_valid_nc[317]), .y(c_pt3_add435), .flags(fl_c_pt3_add435)
     );
@@ -7841,7 +7844,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add436_a = kind_q[175] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt2_vA_y[1*W +: W];
     logic [W-1:0] c_pt3_add436;
     logic [2:0] fl_c_pt3_add436;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add436 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add436 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add436_a), .b(dl_c_pt3_mul433), .sub(1'b0),
         .out_valid(op_valid_nc[318]), .y(c_pt3_add436), .flags(fl_c_pt3_add436)
     );
@@ -7857,7 +7860,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add437_a = kind_q[175] ? dl_f_t0_vB_x[1*W +: W] : dl_c_pt2_vA_z[1*W +: W];
     logic [W-1:0] c_pt3_add437;
     logic [2:0] fl_c_pt3_add437;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add437 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add437 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add437_a), .b(dl_c_pt3_mul434), .sub(kind_q[175]),
         .out_valid(op_valid_nc[319]), .y(c_pt3_add437), .flags(fl_c_pt3_add437)
     );
@@ -7873,7 +7876,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add444_a = kind_q[175] ? dl_f_t0_vB_y[1*W +: W] : dl_c_pt2_wA_x[1*W +: W];
     logic [W-1:0] c_pt3_add444;
     logic [2:0] fl_c_pt3_add444;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add444 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add444 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add444_a), .b(dl_c_pt3_mul441), .sub(kind_q[175]),
         .out_valid(op_valid_nc[323]), .y(c_pt3_add444), .flags(fl_c_pt3_add444)
     );
@@ -7889,7 +7892,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add445_a = kind_q[175] ? dl_f_t0_vB_z[1*W +: W] : dl_c_pt2_wA_y[1*W +: W];
     logic [W-1:0] c_pt3_add445;
     logic [2:0] fl_c_pt3_add445;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add445 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add445 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add445_a), .b(dl_c_pt3_mul442), .sub(kind_q[175]),
         .out_valid(op_valid_nc[324]), .y(c_pt3_add445), .flags(fl_c_pt3_add445)
     );
@@ -7905,7 +7908,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_add446_a = kind_q[175] ? dl_f_t1_wA_x[1*W +: W] : dl_c_pt2_wA_z[1*W +: W];
     logic [W-1:0] c_pt3_add446;
     logic [2:0] fl_c_pt3_add446;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add446 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add446 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add446_a), .b(dl_c_pt3_mul443), .sub(kind_q[175]),
         .out_valid(op_valid_nc[325]), .y(c_pt3_add446), .flags(fl_c_pt3_add446)
     );
@@ -7921,7 +7924,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_sub453_a = kind_q[175] ? dl_f_t1_wA_y[1*W +: W] : dl_c_pt2_vB_x[1*W +: W];
     logic [W-1:0] c_pt3_sub453;
     logic [2:0] fl_c_pt3_sub453;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub453 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub453 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub453_a), .b(dl_c_pt3_mul450), .sub(1'b1),
         .out_valid(op_valid_nc[329]), .y(c_pt3_sub453), .flags(fl_c_pt3_sub453)
     );
@@ -7937,7 +7940,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_sub454_a = kind_q[175] ? dl_f_t1_wA_z[1*W +: W] : dl_c_pt2_vB_y[1*W +: W];
     logic [W-1:0] c_pt3_sub454;
     logic [2:0] fl_c_pt3_sub454;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub454 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub454 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub454_a), .b(dl_c_pt3_mul451), .sub(1'b1),
         .out_valid(op_valid_nc[330]), .y(c_pt3_sub454), .flags(fl_c_pt3_sub454)
     );
@@ -7953,7 +7956,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_sub455_a = kind_q[175] ? dl_f_t1_wB_x[1*W +: W] : dl_c_pt2_vB_z[1*W +: W];
     logic [W-1:0] c_pt3_sub455;
     logic [2:0] fl_c_pt3_sub455;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub455 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub455 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub455_a), .b(dl_c_pt3_mul452), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(c_pt3_sub455), .flags(fl_c_pt3_sub455)
     );
@@ -7969,7 +7972,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_sub462_a = kind_q[175] ? dl_f_t1_wB_y[1*W +: W] : dl_c_pt2_wB_x[1*W +: W];
     logic [W-1:0] c_pt3_sub462;
     logic [2:0] fl_c_pt3_sub462;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub462 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub462 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub462_a), .b(dl_c_pt3_mul459), .sub(1'b1),
         .out_valid(op_valid_nc[335]), .y(c_pt3_sub462), .flags(fl_c_pt3_sub462)
     );
@@ -7985,7 +7988,7 @@ module pgs_shared_pipe_soft_tb #(
     assign c_pt3_sub463_a = kind_q[175] ? dl_f_t1_wB_z[1*W +: W] : dl_c_pt2_wB_y[1*W +: W];
     logic [W-1:0] c_pt3_sub463;
     logic [2:0] fl_c_pt3_sub463;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub463 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub463 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub463_a), .b(dl_c_pt3_mul460), .sub(1'b1),
         .out_valid(op_valid_nc[336]), .y(c_pt3_sub463), .flags(fl_c_pt3_sub463)
     );
@@ -7999,7 +8002,7 @@ module pgs_shared_pipe_soft_tb #(
     // c_pt3_sub464: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub464 = pt2_wB_z - pt3_mul461)
     logic [W-1:0] c_pt3_sub464;
     logic [2:0] fl_c_pt3_sub464;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub464 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub464 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_z[1*W +: W]), .b(dl_c_pt3_mul461), .sub(1'b1),
         .out_valid(op_valid_nc[337]), .y(c_pt3_sub464), .flags(fl_c_pt3_sub464)
     );

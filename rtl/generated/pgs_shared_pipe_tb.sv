@@ -36,6 +36,9 @@ module pgs_shared_pipe_tb #(
     // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
     // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // 1: every fp_add in its DSP48E2 form (fp_add's SHIFT_DSP: the shifts and the add in DSPs), 0: in the
+    // fabric; the same results, flags and latency either way
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 55,
     localparam int N_OUT    = 16,
@@ -655,7 +658,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt0_rA_x_b = kind_q[0] ? dl_in_lam1[2*W +: W] : dl_in_xA_x;
     logic [W-1:0] c_pt0_rA_x;
     logic [2:0] fl_c_pt0_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_x_a), .b(c_pt0_rA_x_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[6]), .y(c_pt0_rA_x), .flags(fl_c_pt0_rA_x)
     );
@@ -673,7 +676,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt0_rA_y_b = kind_q[0] ? dl_in_lam3[2*W +: W] : dl_in_xA_y;
     logic [W-1:0] c_pt0_rA_y;
     logic [2:0] fl_c_pt0_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt0_rA_y_a), .b(c_pt0_rA_y_b), .sub(!kind_q[0]),
         .out_valid(op_valid_nc[7]), .y(c_pt0_rA_y), .flags(fl_c_pt0_rA_y)
     );
@@ -687,7 +690,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rA_z = p0_z - xA_z; friction: rA_z = c_z - xA_z)
     logic [W-1:0] c_pt0_rA_z;
     logic [2:0] fl_c_pt0_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(c_pt0_rA_z), .flags(fl_c_pt0_rA_z)
     );
@@ -703,7 +706,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt0_rB_x_b = kind_q[0] ? dl_in_xA_x : dl_in_xB_x;
     logic [W-1:0] c_pt0_rB_x;
     logic [2:0] fl_c_pt0_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x__c_x), .b(c_pt0_rB_x_b), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(c_pt0_rB_x), .flags(fl_c_pt0_rB_x)
     );
@@ -719,7 +722,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt0_rB_y_b = kind_q[0] ? dl_in_xA_y : dl_in_xB_y;
     logic [W-1:0] c_pt0_rB_y;
     logic [2:0] fl_c_pt0_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y__c_y), .b(c_pt0_rB_y_b), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(c_pt0_rB_y), .flags(fl_c_pt0_rB_y)
     );
@@ -733,7 +736,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt0_rB_z = p0_z - xB_z; friction: rB_z = c_z - xB_z)
     logic [W-1:0] c_pt0_rB_z;
     logic [2:0] fl_c_pt0_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z__c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(c_pt0_rB_z), .flags(fl_c_pt0_rB_z)
     );
@@ -831,7 +834,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_x = p1_x - xA_x)
     logic [W-1:0] c_pt1_rA_x;
     logic [2:0] fl_c_pt1_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_x__f_jac_inv0[0*W +: W]), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(c_pt1_rA_x), .flags(fl_c_pt1_rA_x)
     );
@@ -845,7 +848,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_y = p1_y - xA_y)
     logic [W-1:0] c_pt1_rA_y;
     logic [2:0] fl_c_pt1_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_y__f_jac_inv1[0*W +: W]), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(c_pt1_rA_y), .flags(fl_c_pt1_rA_y)
     );
@@ -859,7 +862,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rA_z = p1_z - xA_z)
     logic [W-1:0] c_pt1_rA_z;
     logic [2:0] fl_c_pt1_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(c_pt1_rA_z), .flags(fl_c_pt1_rA_z)
     );
@@ -875,7 +878,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt1_rB_x_a = kind_q[0] ? dl_in_p0_x__c_x : dl_in_p1_x__f_jac_inv0[0*W +: W];
     logic [W-1:0] c_pt1_rB_x;
     logic [2:0] fl_c_pt1_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_x_a), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(c_pt1_rB_x), .flags(fl_c_pt1_rB_x)
     );
@@ -891,7 +894,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt1_rB_y_a = kind_q[0] ? dl_in_p0_y__c_y : dl_in_p1_y__f_jac_inv1[0*W +: W];
     logic [W-1:0] c_pt1_rB_y;
     logic [2:0] fl_c_pt1_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(c_pt1_rB_y_a), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(c_pt1_rB_y), .flags(fl_c_pt1_rB_y)
     );
@@ -905,7 +908,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt1_rB_z = p1_z - xB_z)
     logic [W-1:0] c_pt1_rB_z;
     logic [2:0] fl_c_pt1_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(c_pt1_rB_z), .flags(fl_c_pt1_rB_z)
     );
@@ -919,7 +922,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_x = p2_x - xA_x)
     logic [W-1:0] c_pt2_rA_x;
     logic [2:0] fl_c_pt2_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(c_pt2_rA_x), .flags(fl_c_pt2_rA_x)
     );
@@ -933,7 +936,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_y = p2_y - xA_y)
     logic [W-1:0] c_pt2_rA_y;
     logic [2:0] fl_c_pt2_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(c_pt2_rA_y), .flags(fl_c_pt2_rA_y)
     );
@@ -947,7 +950,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rA_z = p2_z - xA_z)
     logic [W-1:0] c_pt2_rA_z;
     logic [2:0] fl_c_pt2_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(c_pt2_rA_z), .flags(fl_c_pt2_rA_z)
     );
@@ -961,7 +964,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_x = p2_x - xB_x)
     logic [W-1:0] c_pt2_rB_x;
     logic [2:0] fl_c_pt2_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[182]), .y(c_pt2_rB_x), .flags(fl_c_pt2_rB_x)
     );
@@ -975,7 +978,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_y = p2_y - xB_y)
     logic [W-1:0] c_pt2_rB_y;
     logic [2:0] fl_c_pt2_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(c_pt2_rB_y), .flags(fl_c_pt2_rB_y)
     );
@@ -989,7 +992,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt2_rB_z = p2_z - xB_z)
     logic [W-1:0] c_pt2_rB_z;
     logic [2:0] fl_c_pt2_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(c_pt2_rB_z), .flags(fl_c_pt2_rB_z)
     );
@@ -1003,7 +1006,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_rA_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_x = p3_x - xA_x)
     logic [W-1:0] c_pt3_rA_x;
     logic [2:0] fl_c_pt3_rA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(c_pt3_rA_x), .flags(fl_c_pt3_rA_x)
     );
@@ -1017,7 +1020,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_rA_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_y = p3_y - xA_y)
     logic [W-1:0] c_pt3_rA_y;
     logic [2:0] fl_c_pt3_rA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(c_pt3_rA_y), .flags(fl_c_pt3_rA_y)
     );
@@ -1031,7 +1034,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_rA_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rA_z = p3_z - xA_z)
     logic [W-1:0] c_pt3_rA_z;
     logic [2:0] fl_c_pt3_rA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(c_pt3_rA_z), .flags(fl_c_pt3_rA_z)
     );
@@ -1045,7 +1048,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_rB_x: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_x = p3_x - xB_x)
     logic [W-1:0] c_pt3_rB_x;
     logic [2:0] fl_c_pt3_rB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[264]), .y(c_pt3_rB_x), .flags(fl_c_pt3_rB_x)
     );
@@ -1059,7 +1062,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_rB_y: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_y = p3_y - xB_y)
     logic [W-1:0] c_pt3_rB_y;
     logic [2:0] fl_c_pt3_rB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[265]), .y(c_pt3_rB_y), .flags(fl_c_pt3_rB_y)
     );
@@ -1073,7 +1076,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_rB_z: fp_add @0/0/0 -> @4/4/4 (contact: pt3_rB_z = p3_z - xB_z)
     logic [W-1:0] c_pt3_rB_z;
     logic [2:0] fl_c_pt3_rB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_rB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(c_pt3_rB_z), .flags(fl_c_pt3_rB_z)
     );
@@ -1111,7 +1114,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt0_add87_b = kind_q[3] ? dl_c_linA_y[4*W +: W] : dl_c_pt0_mul86;
     logic [W-1:0] c_pt0_add87;
     logic [2:0] fl_c_pt0_add87;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add87 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add87 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(c_pt0_add87_a), .b(c_pt0_add87_b), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(c_pt0_add87), .flags(fl_c_pt0_add87)
     );
@@ -1129,7 +1132,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt0_add92_b = kind_q[3] ? dl_c_linA_x[4*W +: W] : dl_c_pt0_mul91;
     logic [W-1:0] c_pt0_add92;
     logic [2:0] fl_c_pt0_add92;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add92 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add92 (
         .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(c_pt0_add92_a), .b(c_pt0_add92_b), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(c_pt0_add92), .flags(fl_c_pt0_add92)
     );
@@ -1833,7 +1836,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt0_cA_x_b = kind_q[7] ? dl_c_pt0_rA_y[1*W +: W] : dl_c_pt0_mul65;
     logic [W-1:0] c_pt0_cA_x;
     logic [2:0] fl_c_pt0_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(c_pt0_cA_x_a), .b(c_pt0_cA_x_b), .sub(!kind_q[7]),
         .out_valid(op_valid_nc[11]), .y(c_pt0_cA_x), .flags(fl_c_pt0_cA_x)
     );
@@ -1847,7 +1850,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cA_y = pt0_mul67 - pt0_mul68)
     logic [W-1:0] c_pt0_cA_y;
     logic [2:0] fl_c_pt0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul67), .b(dl_c_pt0_mul68), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(c_pt0_cA_y), .flags(fl_c_pt0_cA_y)
     );
@@ -1861,7 +1864,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cA_z = pt0_mul70 - pt0_mul71)
     logic [W-1:0] c_pt0_cA_z;
     logic [2:0] fl_c_pt0_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul70), .b(dl_c_pt0_mul71), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(c_pt0_cA_z), .flags(fl_c_pt0_cA_z)
     );
@@ -1875,7 +1878,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_x = pt0_mul76 - pt0_mul77)
     logic [W-1:0] c_pt0_cB_x;
     logic [2:0] fl_c_pt0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul76), .b(dl_c_pt0_mul77), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(c_pt0_cB_x), .flags(fl_c_pt0_cB_x)
     );
@@ -1889,7 +1892,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_y = pt0_mul79 - pt0_mul80)
     logic [W-1:0] c_pt0_cB_y;
     logic [2:0] fl_c_pt0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul79), .b(dl_c_pt0_mul80), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(c_pt0_cB_y), .flags(fl_c_pt0_cB_y)
     );
@@ -1903,7 +1906,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cB_z = pt0_mul82 - pt0_mul83)
     logic [W-1:0] c_pt0_cB_z;
     logic [2:0] fl_c_pt0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_mul82), .b(dl_c_pt0_mul83), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(c_pt0_cB_z), .flags(fl_c_pt0_cB_z)
     );
@@ -1917,7 +1920,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add89: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add89 = pt0_add87 + pt0_mul88)
     logic [W-1:0] c_pt0_add89;
     logic [2:0] fl_c_pt0_add89;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add89 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add89 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_add87[0*W +: W]), .b(dl_c_pt0_mul88), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(c_pt0_add89), .flags(fl_c_pt0_add89)
     );
@@ -1931,7 +1934,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add94: fp_add @7/7/7 -> @11/11/11 (contact: pt0_add94 = pt0_add92 + pt0_mul93)
     logic [W-1:0] c_pt0_add94;
     logic [2:0] fl_c_pt0_add94;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add94 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add94 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt0_add92[0*W +: W]), .b(dl_c_pt0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(c_pt0_add94), .flags(fl_c_pt0_add94)
     );
@@ -1945,7 +1948,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cA_x = pt1_mul160 - pt1_mul161)
     logic [W-1:0] c_pt1_cA_x;
     logic [2:0] fl_c_pt1_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul160), .b(dl_c_pt1_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(c_pt1_cA_x), .flags(fl_c_pt1_cA_x)
     );
@@ -1959,7 +1962,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cA_y = pt1_mul163 - pt1_mul164)
     logic [W-1:0] c_pt1_cA_y;
     logic [2:0] fl_c_pt1_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul163), .b(dl_c_pt1_mul164), .sub(1'b1),
         .out_valid(op_valid_nc[96]), .y(c_pt1_cA_y), .flags(fl_c_pt1_cA_y)
     );
@@ -1973,7 +1976,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cA_z = pt1_mul166 - pt1_mul167)
     logic [W-1:0] c_pt1_cA_z;
     logic [2:0] fl_c_pt1_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul166), .b(dl_c_pt1_mul167), .sub(1'b1),
         .out_valid(op_valid_nc[99]), .y(c_pt1_cA_z), .flags(fl_c_pt1_cA_z)
     );
@@ -1987,7 +1990,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_x = pt1_mul172 - pt1_mul173)
     logic [W-1:0] c_pt1_cB_x;
     logic [2:0] fl_c_pt1_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul172), .b(dl_c_pt1_mul173), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(c_pt1_cB_x), .flags(fl_c_pt1_cB_x)
     );
@@ -2001,7 +2004,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_y = pt1_mul175 - pt1_mul176)
     logic [W-1:0] c_pt1_cB_y;
     logic [2:0] fl_c_pt1_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul175), .b(dl_c_pt1_mul176), .sub(1'b1),
         .out_valid(op_valid_nc[108]), .y(c_pt1_cB_y), .flags(fl_c_pt1_cB_y)
     );
@@ -2015,7 +2018,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt1_cB_z = pt1_mul178 - pt1_mul179)
     logic [W-1:0] c_pt1_cB_z;
     logic [2:0] fl_c_pt1_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt1_mul178), .b(dl_c_pt1_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(c_pt1_cB_z), .flags(fl_c_pt1_cB_z)
     );
@@ -2029,7 +2032,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_x = pt2_mul256 - pt2_mul257)
     logic [W-1:0] c_pt2_cA_x;
     logic [2:0] fl_c_pt2_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul256), .b(dl_c_pt2_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[175]), .y(c_pt2_cA_x), .flags(fl_c_pt2_cA_x)
     );
@@ -2043,7 +2046,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_y = pt2_mul259 - pt2_mul260)
     logic [W-1:0] c_pt2_cA_y;
     logic [2:0] fl_c_pt2_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul259), .b(dl_c_pt2_mul260), .sub(1'b1),
         .out_valid(op_valid_nc[178]), .y(c_pt2_cA_y), .flags(fl_c_pt2_cA_y)
     );
@@ -2057,7 +2060,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cA_z = pt2_mul262 - pt2_mul263)
     logic [W-1:0] c_pt2_cA_z;
     logic [2:0] fl_c_pt2_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul262), .b(dl_c_pt2_mul263), .sub(1'b1),
         .out_valid(op_valid_nc[181]), .y(c_pt2_cA_z), .flags(fl_c_pt2_cA_z)
     );
@@ -2071,7 +2074,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_x = pt2_mul268 - pt2_mul269)
     logic [W-1:0] c_pt2_cB_x;
     logic [2:0] fl_c_pt2_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul268), .b(dl_c_pt2_mul269), .sub(1'b1),
         .out_valid(op_valid_nc[187]), .y(c_pt2_cB_x), .flags(fl_c_pt2_cB_x)
     );
@@ -2085,7 +2088,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_y = pt2_mul271 - pt2_mul272)
     logic [W-1:0] c_pt2_cB_y;
     logic [2:0] fl_c_pt2_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul271), .b(dl_c_pt2_mul272), .sub(1'b1),
         .out_valid(op_valid_nc[190]), .y(c_pt2_cB_y), .flags(fl_c_pt2_cB_y)
     );
@@ -2099,7 +2102,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt2_cB_z = pt2_mul274 - pt2_mul275)
     logic [W-1:0] c_pt2_cB_z;
     logic [2:0] fl_c_pt2_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt2_mul274), .b(dl_c_pt2_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(c_pt2_cB_z), .flags(fl_c_pt2_cB_z)
     );
@@ -2113,7 +2116,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_x = pt3_mul352 - pt3_mul353)
     logic [W-1:0] c_pt3_cA_x;
     logic [2:0] fl_c_pt3_cA_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul352), .b(dl_c_pt3_mul353), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(c_pt3_cA_x), .flags(fl_c_pt3_cA_x)
     );
@@ -2127,7 +2130,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_cA_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_y = pt3_mul355 - pt3_mul356)
     logic [W-1:0] c_pt3_cA_y;
     logic [2:0] fl_c_pt3_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul355), .b(dl_c_pt3_mul356), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(c_pt3_cA_y), .flags(fl_c_pt3_cA_y)
     );
@@ -2141,7 +2144,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_cA_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cA_z = pt3_mul358 - pt3_mul359)
     logic [W-1:0] c_pt3_cA_z;
     logic [2:0] fl_c_pt3_cA_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cA_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul358), .b(dl_c_pt3_mul359), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(c_pt3_cA_z), .flags(fl_c_pt3_cA_z)
     );
@@ -2155,7 +2158,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_cB_x: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_x = pt3_mul364 - pt3_mul365)
     logic [W-1:0] c_pt3_cB_x;
     logic [2:0] fl_c_pt3_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul364), .b(dl_c_pt3_mul365), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(c_pt3_cB_x), .flags(fl_c_pt3_cB_x)
     );
@@ -2169,7 +2172,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_cB_y: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_y = pt3_mul367 - pt3_mul368)
     logic [W-1:0] c_pt3_cB_y;
     logic [2:0] fl_c_pt3_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul367), .b(dl_c_pt3_mul368), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(c_pt3_cB_y), .flags(fl_c_pt3_cB_y)
     );
@@ -2183,7 +2186,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_cB_z: fp_add @7/7/7 -> @11/11/11 (contact: pt3_cB_z = pt3_mul370 - pt3_mul371)
     logic [W-1:0] c_pt3_cB_z;
     logic [2:0] fl_c_pt3_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[7]), .a(dl_c_pt3_mul370), .b(dl_c_pt3_mul371), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(c_pt3_cB_z), .flags(fl_c_pt3_cB_z)
     );
@@ -2225,7 +2228,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub95: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub95 = pt0_add89 - pt0_add94)
     logic [W-1:0] c_pt0_sub95;
     logic [2:0] fl_c_pt0_sub95;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub95 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub95 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[11]), .a(dl_c_pt0_add89), .b(dl_c_pt0_add94), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(c_pt0_sub95), .flags(fl_c_pt0_sub95)
     );
@@ -2668,7 +2671,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add98: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add98 = pt0_mul96 + pt0_mul97)
     logic [W-1:0] c_pt0_add98;
     logic [2:0] fl_c_pt0_add98;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add98 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add98 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt0_mul96[0*W +: W]), .b(dl_c_pt0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(c_pt0_add98), .flags(fl_c_pt0_add98)
     );
@@ -2682,7 +2685,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add103: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add103 = pt0_mul101 + pt0_mul102)
     logic [W-1:0] c_pt0_add103;
     logic [2:0] fl_c_pt0_add103;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add103 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add103 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[14]), .a(dl_c_pt0_mul101), .b(dl_c_pt0_mul102), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(c_pt0_add103), .flags(fl_c_pt0_add103)
     );
@@ -2696,7 +2699,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add100: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add100 = pt0_add98 + pt0_mul99)
     logic [W-1:0] c_pt0_add100;
     logic [2:0] fl_c_pt0_add100;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add100 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add100 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt0_add98), .b(dl_c_pt0_mul99), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(c_pt0_add100), .flags(fl_c_pt0_add100)
     );
@@ -2710,7 +2713,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add105: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add105 = pt0_add103 + pt0_mul104)
     logic [W-1:0] c_pt0_add105;
     logic [2:0] fl_c_pt0_add105;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add105 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add105 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[18]), .a(dl_c_pt0_add103), .b(dl_c_pt0_mul104), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(c_pt0_add105), .flags(fl_c_pt0_add105)
     );
@@ -2724,7 +2727,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub106: fp_add @22/22/22 -> @26/26/26 (contact: pt0_sub106 = pt0_add100 - pt0_add105)
     logic [W-1:0] c_pt0_sub106;
     logic [2:0] fl_c_pt0_sub106;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub106 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub106 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[22]), .a(dl_c_pt0_add100), .b(dl_c_pt0_add105), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(c_pt0_sub106), .flags(fl_c_pt0_sub106)
     );
@@ -2738,7 +2741,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_vrel: fp_add @26/26/26 -> @30/30/30 (contact: pt0_vrel = pt0_sub95 + pt0_sub106)
     logic [W-1:0] c_pt0_vrel;
     logic [2:0] fl_c_pt0_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[26]), .a(dl_c_pt0_sub95), .b(dl_c_pt0_sub106), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(c_pt0_vrel), .flags(fl_c_pt0_vrel)
     );
@@ -2752,7 +2755,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add108: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add108 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add108;
     logic [2:0] fl_c_pt0_add108;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add108 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add108 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[30]), .a(dl_c_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(c_pt0_add108), .flags(fl_c_pt0_add108)
     );
@@ -2808,7 +2811,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add110: fp_add @37/37/37 -> @41/41/41 (contact: pt0_add110 = lam0 + pt0_delta0)
     logic [W-1:0] c_pt0_add110;
     logic [2:0] fl_c_pt0_add110;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add110 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add110 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[37]), .a(dl_in_lam0[0*W +: W]), .b(dl_c_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(c_pt0_add110), .flags(fl_c_pt0_add110)
     );
@@ -2839,7 +2842,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[42]), .a(dl_c_pt0_lam_new_max), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(c_pt0_delta), .flags(fl_c_pt0_delta)
     );
@@ -3021,7 +3024,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add123: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add123 = vA_x + pt0_mul120)
     logic [W-1:0] c_pt0_add123;
     logic [2:0] fl_c_pt0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_c_pt0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(c_pt0_add123), .flags(fl_c_pt0_add123)
     );
@@ -3035,7 +3038,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add124: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add124 = vA_y + pt0_mul121)
     logic [W-1:0] c_pt0_add124;
     logic [2:0] fl_c_pt0_add124;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add124 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add124 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_c_pt0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(c_pt0_add124), .flags(fl_c_pt0_add124)
     );
@@ -3049,7 +3052,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add125: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add125 = vA_z + pt0_mul122)
     logic [W-1:0] c_pt0_add125;
     logic [2:0] fl_c_pt0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_c_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(c_pt0_add125), .flags(fl_c_pt0_add125)
     );
@@ -3063,7 +3066,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add132: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add132 = wA_x + pt0_mul129)
     logic [W-1:0] c_pt0_add132;
     logic [2:0] fl_c_pt0_add132;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add132 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add132 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_c_pt0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(c_pt0_add132), .flags(fl_c_pt0_add132)
     );
@@ -3077,7 +3080,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add133: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add133 = wA_y + pt0_mul130)
     logic [W-1:0] c_pt0_add133;
     logic [2:0] fl_c_pt0_add133;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add133 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add133 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_c_pt0_mul130), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(c_pt0_add133), .flags(fl_c_pt0_add133)
     );
@@ -3091,7 +3094,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_add134: fp_add @49/49/49 -> @53/53/53 (contact: pt0_add134 = wA_z + pt0_mul131)
     logic [W-1:0] c_pt0_add134;
     logic [2:0] fl_c_pt0_add134;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_add134 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_add134 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_c_pt0_mul131), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(c_pt0_add134), .flags(fl_c_pt0_add134)
     );
@@ -3105,7 +3108,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub141: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub141 = vB_x - pt0_mul138)
     logic [W-1:0] c_pt0_sub141;
     logic [2:0] fl_c_pt0_sub141;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub141 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub141 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_c_pt0_mul138), .sub(1'b1),
         .out_valid(op_valid_nc[79]), .y(c_pt0_sub141), .flags(fl_c_pt0_sub141)
     );
@@ -3119,7 +3122,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub142: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub142 = vB_y - pt0_mul139)
     logic [W-1:0] c_pt0_sub142;
     logic [2:0] fl_c_pt0_sub142;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub142 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub142 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_c_pt0_mul139), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(c_pt0_sub142), .flags(fl_c_pt0_sub142)
     );
@@ -3133,7 +3136,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub143: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub143 = vB_z - pt0_mul140)
     logic [W-1:0] c_pt0_sub143;
     logic [2:0] fl_c_pt0_sub143;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub143 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub143 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_c_pt0_mul140), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(c_pt0_sub143), .flags(fl_c_pt0_sub143)
     );
@@ -3147,7 +3150,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub150: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub150 = wB_x - pt0_mul147)
     logic [W-1:0] c_pt0_sub150;
     logic [2:0] fl_c_pt0_sub150;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub150 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub150 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_c_pt0_mul147), .sub(1'b1),
         .out_valid(op_valid_nc[85]), .y(c_pt0_sub150), .flags(fl_c_pt0_sub150)
     );
@@ -3161,7 +3164,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub151: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub151 = wB_y - pt0_mul148)
     logic [W-1:0] c_pt0_sub151;
     logic [2:0] fl_c_pt0_sub151;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub151 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub151 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_c_pt0_mul148), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(c_pt0_sub151), .flags(fl_c_pt0_sub151)
     );
@@ -3175,7 +3178,7 @@ module pgs_shared_pipe_tb #(
     // c_pt0_sub152: fp_add @49/49/49 -> @53/53/53 (contact: pt0_sub152 = wB_z - pt0_mul149)
     logic [W-1:0] c_pt0_sub152;
     logic [2:0] fl_c_pt0_sub152;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt0_sub152 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt0_sub152 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_c_pt0_mul149), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(c_pt0_sub152), .flags(fl_c_pt0_sub152)
     );
@@ -3441,7 +3444,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add183: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add183 = pt1_mul181 + pt1_mul182)
     logic [W-1:0] c_pt1_add183;
     logic [2:0] fl_c_pt1_add183;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add183 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add183 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul181), .b(dl_c_pt1_mul182), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(c_pt1_add183), .flags(fl_c_pt1_add183)
     );
@@ -3455,7 +3458,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add188: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add188 = pt1_mul186 + pt1_mul187)
     logic [W-1:0] c_pt1_add188;
     logic [2:0] fl_c_pt1_add188;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add188 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add188 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul186), .b(dl_c_pt1_mul187), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(c_pt1_add188), .flags(fl_c_pt1_add188)
     );
@@ -3469,7 +3472,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add194: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add194 = pt1_mul192 + pt1_mul193)
     logic [W-1:0] c_pt1_add194;
     logic [2:0] fl_c_pt1_add194;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add194 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add194 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul192), .b(dl_c_pt1_mul193), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(c_pt1_add194), .flags(fl_c_pt1_add194)
     );
@@ -3483,7 +3486,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add199: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add199 = pt1_mul197 + pt1_mul198)
     logic [W-1:0] c_pt1_add199;
     logic [2:0] fl_c_pt1_add199;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add199 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add199 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[56]), .a(dl_c_pt1_mul197), .b(dl_c_pt1_mul198), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(c_pt1_add199), .flags(fl_c_pt1_add199)
     );
@@ -3497,7 +3500,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add185: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add185 = pt1_add183 + pt1_mul184)
     logic [W-1:0] c_pt1_add185;
     logic [2:0] fl_c_pt1_add185;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add185 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add185 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add183), .b(dl_c_pt1_mul184), .sub(1'b0),
         .out_valid(op_valid_nc[116]), .y(c_pt1_add185), .flags(fl_c_pt1_add185)
     );
@@ -3511,7 +3514,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add190: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add190 = pt1_add188 + pt1_mul189)
     logic [W-1:0] c_pt1_add190;
     logic [2:0] fl_c_pt1_add190;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add190 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add190 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add188), .b(dl_c_pt1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[121]), .y(c_pt1_add190), .flags(fl_c_pt1_add190)
     );
@@ -3525,7 +3528,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add196: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add196 = pt1_add194 + pt1_mul195)
     logic [W-1:0] c_pt1_add196;
     logic [2:0] fl_c_pt1_add196;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add196 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add196 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add194), .b(dl_c_pt1_mul195), .sub(1'b0),
         .out_valid(op_valid_nc[127]), .y(c_pt1_add196), .flags(fl_c_pt1_add196)
     );
@@ -3539,7 +3542,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add201: fp_add @60/60/60 -> @64/64/64 (contact: pt1_add201 = pt1_add199 + pt1_mul200)
     logic [W-1:0] c_pt1_add201;
     logic [2:0] fl_c_pt1_add201;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add201 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add201 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[60]), .a(dl_c_pt1_add199), .b(dl_c_pt1_mul200), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(c_pt1_add201), .flags(fl_c_pt1_add201)
     );
@@ -3609,7 +3612,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub191: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub191 = pt1_add185 - pt1_add190)
     logic [W-1:0] c_pt1_sub191;
     logic [2:0] fl_c_pt1_sub191;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub191 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub191 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add185), .b(dl_c_pt1_add190), .sub(1'b1),
         .out_valid(op_valid_nc[122]), .y(c_pt1_sub191), .flags(fl_c_pt1_sub191)
     );
@@ -3623,7 +3626,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub202: fp_add @64/64/64 -> @68/68/68 (contact: pt1_sub202 = pt1_add196 - pt1_add201)
     logic [W-1:0] c_pt1_sub202;
     logic [2:0] fl_c_pt1_sub202;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub202 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub202 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[64]), .a(dl_c_pt1_add196), .b(dl_c_pt1_add201), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(c_pt1_sub202), .flags(fl_c_pt1_sub202)
     );
@@ -3910,7 +3913,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub191 + pt1_sub202)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[68]), .a(dl_c_pt1_sub191), .b(dl_c_pt1_sub202), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(c_pt1_vrel), .flags(fl_c_pt1_vrel)
     );
@@ -3924,7 +3927,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_cA_y: fp_add @68/42/36 -> @72/46/40 (friction: t0_cA_y = t0_mul95 - t0_mul96)
     logic [W-1:0] f_t0_cA_y;
     logic [2:0] fl_f_t0_cA_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cA_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cA_y (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul95), .b(dl_f_t0_mul96), .sub(1'b1),
         .out_valid(op_valid_nc[348]), .y(f_t0_cA_y), .flags(fl_f_t0_cA_y)
     );
@@ -3938,7 +3941,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_cB_x: fp_add @68/42/36 -> @72/46/40 (friction: t0_cB_x = t0_mul101 - t0_mul102)
     logic [W-1:0] f_t0_cB_x;
     logic [2:0] fl_f_t0_cB_x;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cB_x (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cB_x (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul101), .b(dl_f_t0_mul102), .sub(1'b1),
         .out_valid(op_valid_nc[353]), .y(f_t0_cB_x), .flags(fl_f_t0_cB_x)
     );
@@ -3952,7 +3955,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_cB_y: fp_add @68/42/36 -> @72/46/40 (friction: t0_cB_y = t0_mul104 - t0_mul105)
     logic [W-1:0] f_t0_cB_y;
     logic [2:0] fl_f_t0_cB_y;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cB_y (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cB_y (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul104), .b(dl_f_t0_mul105), .sub(1'b1),
         .out_valid(op_valid_nc[356]), .y(f_t0_cB_y), .flags(fl_f_t0_cB_y)
     );
@@ -3966,7 +3969,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_cB_z: fp_add @68/42/36 -> @72/46/40 (friction: t0_cB_z = t0_mul107 - t0_mul108)
     logic [W-1:0] f_t0_cB_z;
     logic [2:0] fl_f_t0_cB_z;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_cB_z (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_cB_z (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul107), .b(dl_f_t0_mul108), .sub(1'b1),
         .out_valid(op_valid_nc[359]), .y(f_t0_cB_z), .flags(fl_f_t0_cB_z)
     );
@@ -3980,7 +3983,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add112: fp_add @68/42/36 -> @72/46/40 (friction: t0_add112 = t0_mul110 + t0_mul111)
     logic [W-1:0] f_t0_add112;
     logic [2:0] fl_f_t0_add112;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add112 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add112 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul110), .b(dl_f_t0_mul111), .sub(1'b0),
         .out_valid(op_valid_nc[362]), .y(f_t0_add112), .flags(fl_f_t0_add112)
     );
@@ -3994,7 +3997,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add117: fp_add @68/42/36 -> @72/46/40 (friction: t0_add117 = t0_mul115 + t0_mul116)
     logic [W-1:0] f_t0_add117;
     logic [2:0] fl_f_t0_add117;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add117 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add117 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 22]), .a(dl_f_t0_mul115), .b(dl_f_t0_mul116), .sub(1'b0),
         .out_valid(op_valid_nc[366]), .y(f_t0_add117), .flags(fl_f_t0_add117)
     );
@@ -4012,7 +4015,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt1_add204_b = kind_q[72] ? dl_f_t0_mul93 : dl_in_b1;
     logic [W-1:0] c_pt1_add204;
     logic [2:0] fl_c_pt1_add204;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add204 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add204 (
         .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(c_pt1_add204_a), .b(c_pt1_add204_b), .sub(kind_q[72]),
         .out_valid(op_valid_nc[135]), .y(c_pt1_add204), .flags(fl_c_pt1_add204)
     );
@@ -4026,7 +4029,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add119: fp_add @72/46/40 -> @76/50/44 (friction: t0_add119 = t0_add117 + t0_mul118)
     logic [W-1:0] f_t0_add119;
     logic [2:0] fl_f_t0_add119;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add119 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add119 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 26]), .a(dl_f_t0_add117), .b(dl_f_t0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[368]), .y(f_t0_add119), .flags(fl_f_t0_add119)
     );
@@ -4096,7 +4099,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add128: fp_add @75/49/43 -> @79/53/47 (friction: t0_add128 = t0_mul126 + t0_mul127)
     logic [W-1:0] f_t0_add128;
     logic [2:0] fl_f_t0_add128;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add128 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add128 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 29]), .a(dl_f_t0_mul126), .b(dl_f_t0_mul127), .sub(1'b0),
         .out_valid(op_valid_nc[376]), .y(f_t0_add128), .flags(fl_f_t0_add128)
     );
@@ -4146,7 +4149,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt1_add206_b = kind_q[79] ? dl_f_t0_mul99 : dl_c_pt1_delta0[0*W +: W];
     logic [W-1:0] c_pt1_add206;
     logic [2:0] fl_c_pt1_add206;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add206 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add206 (
         .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(c_pt1_add206_a), .b(c_pt1_add206_b), .sub(kind_q[79]),
         .out_valid(op_valid_nc[137]), .y(c_pt1_add206), .flags(fl_c_pt1_add206)
     );
@@ -4160,7 +4163,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add123: fp_add @79/79/79 -> @83/83/83 (friction: t0_add123 = t0_mul121 + t0_mul122)
     logic [W-1:0] f_t0_add123;
     logic [2:0] fl_f_t0_add123;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add123 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add123 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[pgs_fp_pkg::tmax(79, 2*MAN_BITS + 29)]), .a(dl_f_t0_mul121), .b(dl_f_t0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[371]), .y(f_t0_add123), .flags(fl_f_t0_add123)
     );
@@ -4174,7 +4177,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add130: fp_add @79/53/47 -> @83/57/51 (friction: t0_add130 = t0_add128 + t0_mul129)
     logic [W-1:0] f_t0_add130;
     logic [2:0] fl_f_t0_add130;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add130 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add130 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[2*MAN_BITS + 33]), .a(dl_f_t0_add128), .b(dl_f_t0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[378]), .y(f_t0_add130), .flags(fl_f_t0_add130)
     );
@@ -4223,7 +4226,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt1_delta_b = kind_q[84] ? dl_f_t0_mul113 : dl_in_lam1[1*W +: W];
     logic [W-1:0] c_pt1_delta;
     logic [2:0] fl_c_pt1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(c_pt1_delta_a), .b(c_pt1_delta_b), .sub(!kind_q[84]),
         .out_valid(op_valid_nc[139]), .y(c_pt1_delta), .flags(fl_c_pt1_delta)
     );
@@ -4237,7 +4240,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add125: fp_add @86/86/86 -> @90/90/90 (friction: t0_add125 = t0_add123 + t0_mul124)
     logic [W-1:0] f_t0_add125;
     logic [2:0] fl_f_t0_add125;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add125 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add125 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)]), .a(dl_f_t0_add123), .b(dl_f_t0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[373]), .y(f_t0_add125), .flags(fl_f_t0_add125)
     );
@@ -4492,7 +4495,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt1_add219_b = kind_q[91] ? dl_f_t0_add119 : dl_c_pt1_mul216;
     logic [W-1:0] c_pt1_add219;
     logic [2:0] fl_c_pt1_add219;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add219 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add219 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add219_a), .b(c_pt1_add219_b), .sub(kind_q[91]),
         .out_valid(op_valid_nc[149]), .y(c_pt1_add219), .flags(fl_c_pt1_add219)
     );
@@ -4510,7 +4513,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt1_add220_b = kind_q[91] ? dl_f_t0_add130 : dl_c_pt1_mul217;
     logic [W-1:0] c_pt1_add220;
     logic [2:0] fl_c_pt1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(c_pt1_add220_a), .b(c_pt1_add220_b), .sub(kind_q[91]),
         .out_valid(op_valid_nc[150]), .y(c_pt1_add220), .flags(fl_c_pt1_add220)
     );
@@ -4524,7 +4527,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add221: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add221 = pt0_vA_z + pt1_mul218)
     logic [W-1:0] c_pt1_add221;
     logic [2:0] fl_c_pt1_add221;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add221 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add221 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vA_z[1*W +: W]), .b(dl_c_pt1_mul218), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(c_pt1_add221), .flags(fl_c_pt1_add221)
     );
@@ -4538,7 +4541,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add228: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add228 = pt0_wA_x + pt1_mul225)
     logic [W-1:0] c_pt1_add228;
     logic [2:0] fl_c_pt1_add228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add228 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wA_x[1*W +: W]), .b(dl_c_pt1_mul225), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(c_pt1_add228), .flags(fl_c_pt1_add228)
     );
@@ -4552,7 +4555,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add229: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add229 = pt0_wA_y + pt1_mul226)
     logic [W-1:0] c_pt1_add229;
     logic [2:0] fl_c_pt1_add229;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add229 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add229 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wA_y[1*W +: W]), .b(dl_c_pt1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(c_pt1_add229), .flags(fl_c_pt1_add229)
     );
@@ -4566,7 +4569,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_add230: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add230 = pt0_wA_z + pt1_mul227)
     logic [W-1:0] c_pt1_add230;
     logic [2:0] fl_c_pt1_add230;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_add230 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_add230 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wA_z[1*W +: W]), .b(dl_c_pt1_mul227[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(c_pt1_add230), .flags(fl_c_pt1_add230)
     );
@@ -4580,7 +4583,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub237: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub237 = pt0_vB_x - pt1_mul234)
     logic [W-1:0] c_pt1_sub237;
     logic [2:0] fl_c_pt1_sub237;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub237 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub237 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vB_x[1*W +: W]), .b(dl_c_pt1_mul234[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(c_pt1_sub237), .flags(fl_c_pt1_sub237)
     );
@@ -4594,7 +4597,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub238: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub238 = pt0_vB_y - pt1_mul235)
     logic [W-1:0] c_pt1_sub238;
     logic [2:0] fl_c_pt1_sub238;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub238 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub238 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vB_y[1*W +: W]), .b(dl_c_pt1_mul235[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(c_pt1_sub238), .flags(fl_c_pt1_sub238)
     );
@@ -4608,7 +4611,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub239: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub239 = pt0_vB_z - pt1_mul236)
     logic [W-1:0] c_pt1_sub239;
     logic [2:0] fl_c_pt1_sub239;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub239 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub239 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_vB_z[1*W +: W]), .b(dl_c_pt1_mul236[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(c_pt1_sub239), .flags(fl_c_pt1_sub239)
     );
@@ -4622,7 +4625,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub246: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub246 = pt0_wB_x - pt1_mul243)
     logic [W-1:0] c_pt1_sub246;
     logic [2:0] fl_c_pt1_sub246;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub246 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub246 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wB_x[1*W +: W]), .b(dl_c_pt1_mul243[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[167]), .y(c_pt1_sub246), .flags(fl_c_pt1_sub246)
     );
@@ -4636,7 +4639,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub247: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub247 = pt0_wB_y - pt1_mul244)
     logic [W-1:0] c_pt1_sub247;
     logic [2:0] fl_c_pt1_sub247;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub247 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub247 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wB_y[1*W +: W]), .b(dl_c_pt1_mul244[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[168]), .y(c_pt1_sub247), .flags(fl_c_pt1_sub247)
     );
@@ -4650,7 +4653,7 @@ module pgs_shared_pipe_tb #(
     // c_pt1_sub248: fp_add @91/91/91 -> @95/95/95 (contact: pt1_sub248 = pt0_wB_z - pt1_mul245)
     logic [W-1:0] c_pt1_sub248;
     logic [2:0] fl_c_pt1_sub248;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt1_sub248 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt1_sub248 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[91]), .a(dl_c_pt0_wB_z[1*W +: W]), .b(dl_c_pt1_mul245[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(c_pt1_sub248), .flags(fl_c_pt1_sub248)
     );
@@ -5034,7 +5037,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_u: fp_add @95/95/95 -> @99/99/99 (friction: t0_u = t0_sub120 + t0_sub131)
     logic [W-1:0] f_t0_u;
     logic [2:0] fl_f_t0_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_u (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[95]), .a(dl_c_pt1_add219), .b(dl_c_pt1_add220), .sub(1'b0),
         .out_valid(op_valid_nc[379]), .y(f_t0_u), .flags(fl_f_t0_u)
     );
@@ -5052,7 +5055,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt2_add279_b = kind_q[98] ? dl_c_pt2_mul288 : dl_c_pt2_mul278[0*W +: W];
     logic [W-1:0] c_pt2_add279;
     logic [2:0] fl_c_pt2_add279;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add279 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add279 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(c_pt2_add279_a), .b(c_pt2_add279_b), .sub(kind_q[98]),
         .out_valid(op_valid_nc[196]), .y(c_pt2_add279), .flags(fl_c_pt2_add279)
     );
@@ -5070,7 +5073,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt2_add284_b = kind_q[98] ? dl_f_t1_mul199 : dl_c_pt2_mul283[0*W +: W];
     logic [W-1:0] c_pt2_add284;
     logic [2:0] fl_c_pt2_add284;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add284 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add284 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(c_pt2_add284_a), .b(c_pt2_add284_b), .sub(kind_q[98]),
         .out_valid(op_valid_nc[201]), .y(c_pt2_add284), .flags(fl_c_pt2_add284)
     );
@@ -5088,7 +5091,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt2_add290_b = kind_q[98] ? dl_f_t1_mul202 : dl_c_pt2_mul289[0*W +: W];
     logic [W-1:0] c_pt2_add290;
     logic [2:0] fl_c_pt2_add290;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add290 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add290 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(c_pt2_add290_a), .b(c_pt2_add290_b), .sub(kind_q[98]),
         .out_valid(op_valid_nc[207]), .y(c_pt2_add290), .flags(fl_c_pt2_add290)
     );
@@ -5102,7 +5105,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add295: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add295 = pt2_mul293 + pt2_mul294; friction: t1_cA_z = t1_mul195 - t1_mul196)
     logic [W-1:0] c_pt2_add295;
     logic [2:0] fl_c_pt2_add295;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add295 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add295 (
         .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_c_pt2_mul293), .b(dl_c_pt2_mul294), .sub(kind_q[98]),
         .out_valid(op_valid_nc[212]), .y(c_pt2_add295), .flags(fl_c_pt2_add295)
     );
@@ -5141,7 +5144,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt2_add281_b = kind_q[102] ? dl_f_t0_delta0 : dl_c_pt2_mul280[0*W +: W];
     logic [W-1:0] c_pt2_add281;
     logic [2:0] fl_c_pt2_add281;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add281 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add281 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(c_pt2_add281_a), .b(c_pt2_add281_b), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(c_pt2_add281), .flags(fl_c_pt2_add281)
     );
@@ -5159,7 +5162,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt2_add286_b = kind_q[102] ? dl_f_t1_mul205 : dl_c_pt2_mul285[0*W +: W];
     logic [W-1:0] c_pt2_add286;
     logic [2:0] fl_c_pt2_add286;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add286 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add286 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(c_pt2_add286_a), .b(c_pt2_add286_b), .sub(kind_q[102]),
         .out_valid(op_valid_nc[203]), .y(c_pt2_add286), .flags(fl_c_pt2_add286)
     );
@@ -5175,7 +5178,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt2_add292_a = kind_q[102] ? dl_c_pt2_mul289[1*W +: W] : dl_c_pt2_add290[0*W +: W];
     logic [W-1:0] c_pt2_add292;
     logic [2:0] fl_c_pt2_add292;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add292 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add292 (
         .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(c_pt2_add292_a), .b(dl_c_pt2_mul291), .sub(kind_q[102]),
         .out_valid(op_valid_nc[209]), .y(c_pt2_add292), .flags(fl_c_pt2_add292)
     );
@@ -5189,7 +5192,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add297: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add297 = pt2_add295 + pt2_mul296)
     logic [W-1:0] c_pt2_add297;
     logic [2:0] fl_c_pt2_add297;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add297 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add297 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[102]), .a(dl_c_pt2_add295[0*W +: W]), .b(dl_c_pt2_mul296[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(c_pt2_add297), .flags(fl_c_pt2_add297)
     );
@@ -5203,7 +5206,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub287: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub287 = pt2_add281 - pt2_add286)
     logic [W-1:0] c_pt2_sub287;
     logic [2:0] fl_c_pt2_sub287;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub287 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub287 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[106]), .a(dl_c_pt2_add281), .b(dl_c_pt2_add286[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(c_pt2_sub287), .flags(fl_c_pt2_sub287)
     );
@@ -5217,7 +5220,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub298: fp_add @106/106/106 -> @110/110/110 (contact: pt2_sub298 = pt2_add292 - pt2_add297)
     logic [W-1:0] c_pt2_sub298;
     logic [2:0] fl_c_pt2_sub298;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub298 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub298 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[106]), .a(dl_c_pt2_add292[0*W +: W]), .b(dl_c_pt2_add297), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(c_pt2_sub298), .flags(fl_c_pt2_sub298)
     );
@@ -5258,7 +5261,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_delta: fp_add @108/108/108 -> @112/112/112 (friction: t0_delta = t0_lam_new - lamT0)
     logic [W-1:0] f_t0_delta;
     logic [2:0] fl_f_t0_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_delta (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[108]), .a(dl_f_t0_lam_new_min), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[383]), .y(f_t0_delta), .flags(fl_f_t0_delta)
     );
@@ -5272,7 +5275,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub287 + pt2_sub298)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[110]), .a(dl_c_pt2_sub287), .b(dl_c_pt2_sub298), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(c_pt2_vrel), .flags(fl_c_pt2_vrel)
     );
@@ -5461,7 +5464,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add300: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add300 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add300;
     logic [2:0] fl_c_pt2_add300;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add300 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add300 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[114]), .a(dl_c_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[217]), .y(c_pt2_add300), .flags(fl_c_pt2_add300)
     );
@@ -5475,7 +5478,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add147: fp_add @115/115/115 -> @119/119/119 (friction: t0_add147 = vA_x + t0_mul144)
     logic [W-1:0] f_t0_add147;
     logic [2:0] fl_f_t0_add147;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add147 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add147 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vA_x[4*W +: W]), .b(dl_f_t0_mul144), .sub(1'b0),
         .out_valid(op_valid_nc[387]), .y(f_t0_add147), .flags(fl_f_t0_add147)
     );
@@ -5489,7 +5492,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add148: fp_add @115/115/115 -> @119/119/119 (friction: t0_add148 = vA_y + t0_mul145)
     logic [W-1:0] f_t0_add148;
     logic [2:0] fl_f_t0_add148;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add148 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add148 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vA_y[4*W +: W]), .b(dl_f_t0_mul145), .sub(1'b0),
         .out_valid(op_valid_nc[388]), .y(f_t0_add148), .flags(fl_f_t0_add148)
     );
@@ -5503,7 +5506,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add149: fp_add @115/115/115 -> @119/119/119 (friction: t0_add149 = vA_z + t0_mul146)
     logic [W-1:0] f_t0_add149;
     logic [2:0] fl_f_t0_add149;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add149 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add149 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vA_z[4*W +: W]), .b(dl_f_t0_mul146), .sub(1'b0),
         .out_valid(op_valid_nc[389]), .y(f_t0_add149), .flags(fl_f_t0_add149)
     );
@@ -5517,7 +5520,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add159: fp_add @115/115/115 -> @119/119/119 (friction: t0_add159 = wA_x + t0_mul156)
     logic [W-1:0] f_t0_add159;
     logic [2:0] fl_f_t0_add159;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add159 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add159 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wA_x[4*W +: W]), .b(dl_f_t0_mul156), .sub(1'b0),
         .out_valid(op_valid_nc[393]), .y(f_t0_add159), .flags(fl_f_t0_add159)
     );
@@ -5531,7 +5534,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add160: fp_add @115/115/115 -> @119/119/119 (friction: t0_add160 = wA_y + t0_mul157)
     logic [W-1:0] f_t0_add160;
     logic [2:0] fl_f_t0_add160;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add160 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add160 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wA_y[4*W +: W]), .b(dl_f_t0_mul157), .sub(1'b0),
         .out_valid(op_valid_nc[394]), .y(f_t0_add160), .flags(fl_f_t0_add160)
     );
@@ -5545,7 +5548,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_add161: fp_add @115/115/115 -> @119/119/119 (friction: t0_add161 = wA_z + t0_mul158)
     logic [W-1:0] f_t0_add161;
     logic [2:0] fl_f_t0_add161;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_add161 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_add161 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wA_z[4*W +: W]), .b(dl_f_t0_mul158), .sub(1'b0),
         .out_valid(op_valid_nc[395]), .y(f_t0_add161), .flags(fl_f_t0_add161)
     );
@@ -5559,7 +5562,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_sub171: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub171 = vB_x - t0_mul168)
     logic [W-1:0] f_t0_sub171;
     logic [2:0] fl_f_t0_sub171;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub171 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub171 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vB_x[4*W +: W]), .b(dl_f_t0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[399]), .y(f_t0_sub171), .flags(fl_f_t0_sub171)
     );
@@ -5573,7 +5576,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_sub172: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub172 = vB_y - t0_mul169)
     logic [W-1:0] f_t0_sub172;
     logic [2:0] fl_f_t0_sub172;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub172 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub172 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vB_y[4*W +: W]), .b(dl_f_t0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[400]), .y(f_t0_sub172), .flags(fl_f_t0_sub172)
     );
@@ -5587,7 +5590,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_sub173: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub173 = vB_z - t0_mul170)
     logic [W-1:0] f_t0_sub173;
     logic [2:0] fl_f_t0_sub173;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub173 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub173 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_vB_z[4*W +: W]), .b(dl_f_t0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[401]), .y(f_t0_sub173), .flags(fl_f_t0_sub173)
     );
@@ -5601,7 +5604,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_sub183: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub183 = wB_x - t0_mul180)
     logic [W-1:0] f_t0_sub183;
     logic [2:0] fl_f_t0_sub183;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub183 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub183 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wB_x[4*W +: W]), .b(dl_f_t0_mul180), .sub(1'b1),
         .out_valid(op_valid_nc[405]), .y(f_t0_sub183), .flags(fl_f_t0_sub183)
     );
@@ -5615,7 +5618,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_sub184: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub184 = wB_y - t0_mul181)
     logic [W-1:0] f_t0_sub184;
     logic [2:0] fl_f_t0_sub184;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub184 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub184 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wB_y[4*W +: W]), .b(dl_f_t0_mul181), .sub(1'b1),
         .out_valid(op_valid_nc[406]), .y(f_t0_sub184), .flags(fl_f_t0_sub184)
     );
@@ -5629,7 +5632,7 @@ module pgs_shared_pipe_tb #(
     // f_t0_sub185: fp_add @115/115/115 -> @119/119/119 (friction: t0_sub185 = wB_z - t0_mul182)
     logic [W-1:0] f_t0_sub185;
     logic [2:0] fl_f_t0_sub185;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t0_sub185 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t0_sub185 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[115]), .a(dl_in_wB_z[4*W +: W]), .b(dl_f_t0_mul182), .sub(1'b1),
         .out_valid(op_valid_nc[407]), .y(f_t0_sub185), .flags(fl_f_t0_sub185)
     );
@@ -5913,7 +5916,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add302: fp_add @121/121/121 -> @125/125/125 (contact: pt2_add302 = lam2 + pt2_delta0)
     logic [W-1:0] c_pt2_add302;
     logic [2:0] fl_c_pt2_add302;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add302 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add302 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[121]), .a(dl_in_lam2[0*W +: W]), .b(dl_c_pt2_delta0[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(c_pt2_add302), .flags(fl_c_pt2_add302)
     );
@@ -5927,7 +5930,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add209: fp_add @122/122/122 -> @126/126/126 (friction: t1_add209 = t1_mul207 + t1_mul208)
     logic [W-1:0] f_t1_add209;
     logic [2:0] fl_f_t1_add209;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add209 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add209 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul207), .b(dl_f_t1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[415]), .y(f_t1_add209), .flags(fl_f_t1_add209)
     );
@@ -5941,7 +5944,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add214: fp_add @122/122/122 -> @126/126/126 (friction: t1_add214 = t1_mul212 + t1_mul213)
     logic [W-1:0] f_t1_add214;
     logic [2:0] fl_f_t1_add214;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add214 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add214 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul212), .b(dl_f_t1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[419]), .y(f_t1_add214), .flags(fl_f_t1_add214)
     );
@@ -5955,7 +5958,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add220: fp_add @122/122/122 -> @126/126/126 (friction: t1_add220 = t1_mul218 + t1_mul219)
     logic [W-1:0] f_t1_add220;
     logic [2:0] fl_f_t1_add220;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add220 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add220 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul218), .b(dl_f_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[425]), .y(f_t1_add220), .flags(fl_f_t1_add220)
     );
@@ -5969,7 +5972,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add225: fp_add @122/122/122 -> @126/126/126 (friction: t1_add225 = t1_mul223 + t1_mul224)
     logic [W-1:0] f_t1_add225;
     logic [2:0] fl_f_t1_add225;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add225 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add225 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[122]), .a(dl_f_t1_mul223), .b(dl_f_t1_mul224), .sub(1'b0),
         .out_valid(op_valid_nc[430]), .y(f_t1_add225), .flags(fl_f_t1_add225)
     );
@@ -6004,7 +6007,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt2_delta_b = kind_q[126] ? dl_f_t1_mul210 : dl_in_lam2[1*W +: W];
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(c_pt2_delta_a), .b(c_pt2_delta_b), .sub(!kind_q[126]),
         .out_valid(op_valid_nc[221]), .y(c_pt2_delta), .flags(fl_c_pt2_delta)
     );
@@ -6018,7 +6021,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add216: fp_add @126/126/126 -> @130/130/130 (friction: t1_add216 = t1_add214 + t1_mul215)
     logic [W-1:0] f_t1_add216;
     logic [2:0] fl_f_t1_add216;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add216 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add216 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[126]), .a(dl_f_t1_add214), .b(dl_f_t1_mul215), .sub(1'b0),
         .out_valid(op_valid_nc[421]), .y(f_t1_add216), .flags(fl_f_t1_add216)
     );
@@ -6032,7 +6035,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add222: fp_add @126/126/126 -> @130/130/130 (friction: t1_add222 = t1_add220 + t1_mul221)
     logic [W-1:0] f_t1_add222;
     logic [2:0] fl_f_t1_add222;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add222 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add222 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[126]), .a(dl_f_t1_add220), .b(dl_f_t1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[427]), .y(f_t1_add222), .flags(fl_f_t1_add222)
     );
@@ -6046,7 +6049,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add227: fp_add @126/126/126 -> @130/130/130 (friction: t1_add227 = t1_add225 + t1_mul226)
     logic [W-1:0] f_t1_add227;
     logic [2:0] fl_f_t1_add227;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add227 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add227 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[126]), .a(dl_f_t1_add225), .b(dl_f_t1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[432]), .y(f_t1_add227), .flags(fl_f_t1_add227)
     );
@@ -6272,7 +6275,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_sub217: fp_add @130/130/130 -> @134/134/134 (friction: t1_sub217 = t1_add211 - t1_add216)
     logic [W-1:0] f_t1_sub217;
     logic [2:0] fl_f_t1_sub217;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub217 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub217 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[130]), .a(dl_c_pt2_delta), .b(dl_f_t1_add216), .sub(1'b1),
         .out_valid(op_valid_nc[422]), .y(f_t1_sub217), .flags(fl_f_t1_sub217)
     );
@@ -6286,7 +6289,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_sub228: fp_add @130/130/130 -> @134/134/134 (friction: t1_sub228 = t1_add222 - t1_add227)
     logic [W-1:0] f_t1_sub228;
     logic [2:0] fl_f_t1_sub228;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub228 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub228 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[130]), .a(dl_f_t1_add222), .b(dl_f_t1_add227), .sub(1'b1),
         .out_valid(op_valid_nc[433]), .y(f_t1_sub228), .flags(fl_f_t1_sub228)
     );
@@ -6300,7 +6303,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add315: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add315 = pt1_vA_x + pt2_mul312)
     logic [W-1:0] c_pt2_add315;
     logic [2:0] fl_c_pt2_add315;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add315 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add315 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_x[1*W +: W]), .b(dl_c_pt2_mul312[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[231]), .y(c_pt2_add315), .flags(fl_c_pt2_add315)
     );
@@ -6314,7 +6317,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add316: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add316 = pt1_vA_y + pt2_mul313)
     logic [W-1:0] c_pt2_add316;
     logic [2:0] fl_c_pt2_add316;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add316 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add316 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_y[1*W +: W]), .b(dl_c_pt2_mul313[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[232]), .y(c_pt2_add316), .flags(fl_c_pt2_add316)
     );
@@ -6328,7 +6331,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add317: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add317 = pt1_vA_z + pt2_mul314)
     logic [W-1:0] c_pt2_add317;
     logic [2:0] fl_c_pt2_add317;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add317 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add317 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vA_z[1*W +: W]), .b(dl_c_pt2_mul314[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[233]), .y(c_pt2_add317), .flags(fl_c_pt2_add317)
     );
@@ -6342,7 +6345,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add324: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add324 = pt1_wA_x + pt2_mul321)
     logic [W-1:0] c_pt2_add324;
     logic [2:0] fl_c_pt2_add324;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add324 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add324 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_x[1*W +: W]), .b(dl_c_pt2_mul321[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[237]), .y(c_pt2_add324), .flags(fl_c_pt2_add324)
     );
@@ -6356,7 +6359,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add325: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add325 = pt1_wA_y + pt2_mul322)
     logic [W-1:0] c_pt2_add325;
     logic [2:0] fl_c_pt2_add325;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add325 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add325 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_y[1*W +: W]), .b(dl_c_pt2_mul322[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(c_pt2_add325), .flags(fl_c_pt2_add325)
     );
@@ -6370,7 +6373,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_add326: fp_add @133/133/133 -> @137/137/137 (contact: pt2_add326 = pt1_wA_z + pt2_mul323)
     logic [W-1:0] c_pt2_add326;
     logic [2:0] fl_c_pt2_add326;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_add326 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_add326 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wA_z[1*W +: W]), .b(dl_c_pt2_mul323[0*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[239]), .y(c_pt2_add326), .flags(fl_c_pt2_add326)
     );
@@ -6384,7 +6387,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub333: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub333 = pt1_vB_x - pt2_mul330)
     logic [W-1:0] c_pt2_sub333;
     logic [2:0] fl_c_pt2_sub333;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub333 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub333 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_x[1*W +: W]), .b(dl_c_pt2_mul330[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(c_pt2_sub333), .flags(fl_c_pt2_sub333)
     );
@@ -6398,7 +6401,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub334: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub334 = pt1_vB_y - pt2_mul331)
     logic [W-1:0] c_pt2_sub334;
     logic [2:0] fl_c_pt2_sub334;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub334 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub334 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_y[1*W +: W]), .b(dl_c_pt2_mul331[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(c_pt2_sub334), .flags(fl_c_pt2_sub334)
     );
@@ -6412,7 +6415,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub335: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub335 = pt1_vB_z - pt2_mul332)
     logic [W-1:0] c_pt2_sub335;
     logic [2:0] fl_c_pt2_sub335;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub335 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub335 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_vB_z[1*W +: W]), .b(dl_c_pt2_mul332[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(c_pt2_sub335), .flags(fl_c_pt2_sub335)
     );
@@ -6426,7 +6429,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub342: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub342 = pt1_wB_x - pt2_mul339)
     logic [W-1:0] c_pt2_sub342;
     logic [2:0] fl_c_pt2_sub342;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub342 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub342 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_x[1*W +: W]), .b(dl_c_pt2_mul339[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[249]), .y(c_pt2_sub342), .flags(fl_c_pt2_sub342)
     );
@@ -6440,7 +6443,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub343: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub343 = pt1_wB_y - pt2_mul340)
     logic [W-1:0] c_pt2_sub343;
     logic [2:0] fl_c_pt2_sub343;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub343 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub343 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_y[1*W +: W]), .b(dl_c_pt2_mul340[0*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[250]), .y(c_pt2_sub343), .flags(fl_c_pt2_sub343)
     );
@@ -6454,7 +6457,7 @@ module pgs_shared_pipe_tb #(
     // c_pt2_sub344: fp_add @133/133/133 -> @137/137/137 (contact: pt2_sub344 = pt1_wB_z - pt2_mul341)
     logic [W-1:0] c_pt2_sub344;
     logic [2:0] fl_c_pt2_sub344;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt2_sub344 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt2_sub344 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[133]), .a(dl_c_pt1_wB_z[1*W +: W]), .b(dl_c_pt2_mul341), .sub(1'b1),
         .out_valid(op_valid_nc[251]), .y(c_pt2_sub344), .flags(fl_c_pt2_sub344)
     );
@@ -6468,7 +6471,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_u: fp_add @134/134/134 -> @138/138/138 (friction: t1_u = t1_sub217 + t1_sub228)
     logic [W-1:0] f_t1_u;
     logic [2:0] fl_f_t1_u;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_u (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_u (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[134]), .a(dl_f_t1_sub217), .b(dl_f_t1_sub228), .sub(1'b0),
         .out_valid(op_valid_nc[434]), .y(f_t1_u), .flags(fl_f_t1_u)
     );
@@ -6755,7 +6758,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add375: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add375 = pt3_mul373 + pt3_mul374)
     logic [W-1:0] c_pt3_add375;
     logic [2:0] fl_c_pt3_add375;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add375 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add375 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul373), .b(dl_c_pt3_mul374), .sub(1'b0),
         .out_valid(op_valid_nc[278]), .y(c_pt3_add375), .flags(fl_c_pt3_add375)
     );
@@ -6769,7 +6772,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add380: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add380 = pt3_mul378 + pt3_mul379)
     logic [W-1:0] c_pt3_add380;
     logic [2:0] fl_c_pt3_add380;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add380 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add380 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul378), .b(dl_c_pt3_mul379), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(c_pt3_add380), .flags(fl_c_pt3_add380)
     );
@@ -6783,7 +6786,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add386: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add386 = pt3_mul384 + pt3_mul385)
     logic [W-1:0] c_pt3_add386;
     logic [2:0] fl_c_pt3_add386;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add386 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add386 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul384), .b(dl_c_pt3_mul385), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(c_pt3_add386), .flags(fl_c_pt3_add386)
     );
@@ -6797,7 +6800,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add391: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add391 = pt3_mul389 + pt3_mul390)
     logic [W-1:0] c_pt3_add391;
     logic [2:0] fl_c_pt3_add391;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add391 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add391 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[140]), .a(dl_c_pt3_mul389), .b(dl_c_pt3_mul390), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(c_pt3_add391), .flags(fl_c_pt3_add391)
     );
@@ -6811,7 +6814,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add232: fp_add @141/141/141 -> @145/145/145 (friction: t1_add232 = lamT1 + t1_delta0)
     logic [W-1:0] f_t1_add232;
     logic [2:0] fl_f_t1_add232;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add232 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add232 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[141]), .a(dl_in_lamT1[0*W +: W]), .b(dl_f_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[436]), .y(f_t1_add232), .flags(fl_f_t1_add232)
     );
@@ -6825,7 +6828,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add377: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add377 = pt3_add375 + pt3_mul376)
     logic [W-1:0] c_pt3_add377;
     logic [2:0] fl_c_pt3_add377;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add377 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add377 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add375), .b(dl_c_pt3_mul376), .sub(1'b0),
         .out_valid(op_valid_nc[280]), .y(c_pt3_add377), .flags(fl_c_pt3_add377)
     );
@@ -6839,7 +6842,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add382: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add382 = pt3_add380 + pt3_mul381)
     logic [W-1:0] c_pt3_add382;
     logic [2:0] fl_c_pt3_add382;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add382 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add382 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add380), .b(dl_c_pt3_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[285]), .y(c_pt3_add382), .flags(fl_c_pt3_add382)
     );
@@ -6853,7 +6856,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add388: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add388 = pt3_add386 + pt3_mul387)
     logic [W-1:0] c_pt3_add388;
     logic [2:0] fl_c_pt3_add388;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add388 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add388 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add386), .b(dl_c_pt3_mul387), .sub(1'b0),
         .out_valid(op_valid_nc[291]), .y(c_pt3_add388), .flags(fl_c_pt3_add388)
     );
@@ -6867,7 +6870,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_add393: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add393 = pt3_add391 + pt3_mul392)
     logic [W-1:0] c_pt3_add393;
     logic [2:0] fl_c_pt3_add393;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add393 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add393 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[144]), .a(dl_c_pt3_add391), .b(dl_c_pt3_mul392), .sub(1'b0),
         .out_valid(op_valid_nc[296]), .y(c_pt3_add393), .flags(fl_c_pt3_add393)
     );
@@ -6908,7 +6911,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_delta: fp_add @147/147/147 -> @151/151/151 (friction: t1_delta = t1_lam_new - lamT1)
     logic [W-1:0] f_t1_delta;
     logic [2:0] fl_f_t1_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_delta (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[147]), .a(dl_f_t1_lam_new_min), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[439]), .y(f_t1_delta), .flags(fl_f_t1_delta)
     );
@@ -6922,7 +6925,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_sub383: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub383 = pt3_add377 - pt3_add382)
     logic [W-1:0] c_pt3_sub383;
     logic [2:0] fl_c_pt3_sub383;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub383 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub383 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[148]), .a(dl_c_pt3_add377), .b(dl_c_pt3_add382), .sub(1'b1),
         .out_valid(op_valid_nc[286]), .y(c_pt3_sub383), .flags(fl_c_pt3_sub383)
     );
@@ -6936,7 +6939,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_sub394: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub394 = pt3_add388 - pt3_add393)
     logic [W-1:0] c_pt3_sub394;
     logic [2:0] fl_c_pt3_sub394;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub394 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub394 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[148]), .a(dl_c_pt3_add388), .b(dl_c_pt3_add393), .sub(1'b1),
         .out_valid(op_valid_nc[297]), .y(c_pt3_sub394), .flags(fl_c_pt3_sub394)
     );
@@ -7041,7 +7044,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_vrel: fp_add @152/152/152 -> @156/156/156 (contact: pt3_vrel = pt3_sub383 + pt3_sub394)
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_vrel (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[152]), .a(dl_c_pt3_sub383), .b(dl_c_pt3_sub394), .sub(1'b0),
         .out_valid(op_valid_nc[298]), .y(c_pt3_vrel), .flags(fl_c_pt3_vrel)
     );
@@ -7055,7 +7058,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add256: fp_add @154/154/154 -> @158/158/158 (friction: t1_add256 = t0_wA_x + t1_mul253)
     logic [W-1:0] f_t1_add256;
     logic [2:0] fl_f_t1_add256;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add256 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add256 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wA_x[1*W +: W]), .b(dl_f_t1_mul253), .sub(1'b0),
         .out_valid(op_valid_nc[443]), .y(f_t1_add256), .flags(fl_f_t1_add256)
     );
@@ -7069,7 +7072,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_add257: fp_add @154/154/154 -> @158/158/158 (friction: t1_add257 = t0_wA_y + t1_mul254)
     logic [W-1:0] f_t1_add257;
     logic [2:0] fl_f_t1_add257;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_add257 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_add257 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wA_y[1*W +: W]), .b(dl_f_t1_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[444]), .y(f_t1_add257), .flags(fl_f_t1_add257)
     );
@@ -7083,7 +7086,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_sub280: fp_add @154/154/154 -> @158/158/158 (friction: t1_sub280 = t0_wB_x - t1_mul277)
     logic [W-1:0] f_t1_sub280;
     logic [2:0] fl_f_t1_sub280;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub280 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub280 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wB_x[1*W +: W]), .b(dl_f_t1_mul277), .sub(1'b1),
         .out_valid(op_valid_nc[448]), .y(f_t1_sub280), .flags(fl_f_t1_sub280)
     );
@@ -7097,7 +7100,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_sub281: fp_add @154/154/154 -> @158/158/158 (friction: t1_sub281 = t0_wB_y - t1_mul278)
     logic [W-1:0] f_t1_sub281;
     logic [2:0] fl_f_t1_sub281;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub281 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub281 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wB_y[1*W +: W]), .b(dl_f_t1_mul278), .sub(1'b1),
         .out_valid(op_valid_nc[449]), .y(f_t1_sub281), .flags(fl_f_t1_sub281)
     );
@@ -7111,7 +7114,7 @@ module pgs_shared_pipe_tb #(
     // f_t1_sub282: fp_add @154/154/154 -> @158/158/158 (friction: t1_sub282 = t0_wB_z - t1_mul279)
     logic [W-1:0] f_t1_sub282;
     logic [2:0] fl_f_t1_sub282;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_t1_sub282 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_t1_sub282 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[154]), .a(dl_f_t0_wB_z[1*W +: W]), .b(dl_f_t1_mul279), .sub(1'b1),
         .out_valid(op_valid_nc[450]), .y(f_t1_sub282), .flags(fl_f_t1_sub282)
     );
@@ -7129,7 +7132,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add396_b = kind_q[156] ? dl_f_t1_mul255 : dl_in_b3;
     logic [W-1:0] c_pt3_add396;
     logic [2:0] fl_c_pt3_add396;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add396 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add396 (
         .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(c_pt3_add396_a), .b(c_pt3_add396_b), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(c_pt3_add396), .flags(fl_c_pt3_add396)
     );
@@ -7287,7 +7290,7 @@ module pgs_shared_pipe_tb #(
     // f_spin_add289: fp_add @161/161/161 -> @165/165/165 (friction: spin_add289 = spin_mul287 + spin_mul288)
     logic [W-1:0] f_spin_add289;
     logic [2:0] fl_f_spin_add289;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add289 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add289 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[161]), .a(dl_f_spin_mul287), .b(dl_f_spin_mul288), .sub(1'b0),
         .out_valid(op_valid_nc[453]), .y(f_spin_add289), .flags(fl_f_spin_add289)
     );
@@ -7301,7 +7304,7 @@ module pgs_shared_pipe_tb #(
     // f_spin_add301: fp_add @161/161/161 -> @165/165/165 (friction: spin_add301 = spin_mul299 + spin_mul300)
     logic [W-1:0] f_spin_add301;
     logic [2:0] fl_f_spin_add301;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add301 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add301 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[161]), .a(dl_f_spin_mul299), .b(dl_f_spin_mul300), .sub(1'b0),
         .out_valid(op_valid_nc[459]), .y(f_spin_add301), .flags(fl_f_spin_add301)
     );
@@ -7317,7 +7320,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add398_a = kind_q[163] ? dl_f_t0_vA_x[1*W +: W] : dl_in_lam3[0*W +: W];
     logic [W-1:0] c_pt3_add398;
     logic [2:0] fl_c_pt3_add398;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add398 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add398 (
         .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(c_pt3_add398_a), .b(dl_c_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(c_pt3_add398), .flags(fl_c_pt3_add398)
     );
@@ -7331,7 +7334,7 @@ module pgs_shared_pipe_tb #(
     // f_spin_add291: fp_add @165/165/165 -> @169/169/169 (friction: spin_add291 = spin_add289 + spin_mul290)
     logic [W-1:0] f_spin_add291;
     logic [2:0] fl_f_spin_add291;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add291 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add291 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[165]), .a(dl_f_spin_add289), .b(dl_f_spin_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[455]), .y(f_spin_add291), .flags(fl_f_spin_add291)
     );
@@ -7345,7 +7348,7 @@ module pgs_shared_pipe_tb #(
     // f_spin_add303: fp_add @165/165/165 -> @169/169/169 (friction: spin_add303 = spin_add301 + spin_mul302)
     logic [W-1:0] f_spin_add303;
     logic [2:0] fl_f_spin_add303;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_f_spin_add303 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_f_spin_add303 (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[165]), .a(dl_f_spin_add301), .b(dl_f_spin_mul302), .sub(1'b0),
         .out_valid(op_valid_nc[461]), .y(f_spin_add303), .flags(fl_f_spin_add303)
     );
@@ -7383,7 +7386,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_delta (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[168]), .a(dl_c_pt3_lam_new_max), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[303]), .y(c_pt3_delta), .flags(fl_c_pt3_delta)
     );
@@ -7639,7 +7642,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add411_a = kind_q[175] ? dl_f_t0_vA_y[1*W +: W] : dl_c_pt2_vA_x[1*W +: W];
     logic [W-1:0] c_pt3_add411;
     logic [2:0] fl_c_pt3_add411;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add411 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add411 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add411_a), .b(dl_c_pt3_mul408), .sub(1'b0),
         .out_valid(op_valid_nc[313]), .y(c_pt3_add411), .flags(fl_c_pt3_add411)
     );
@@ -7655,7 +7658,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add412_a = kind_q[175] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt2_vA_y[1*W +: W];
     logic [W-1:0] c_pt3_add412;
     logic [2:0] fl_c_pt3_add412;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add412 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add412 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add412_a), .b(dl_c_pt3_mul409), .sub(1'b0),
         .out_valid(op_valid_nc[314]), .y(c_pt3_add412), .flags(fl_c_pt3_add412)
     );
@@ -7671,7 +7674,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add413_a = kind_q[175] ? dl_f_t0_vB_x[1*W +: W] : dl_c_pt2_vA_z[1*W +: W];
     logic [W-1:0] c_pt3_add413;
     logic [2:0] fl_c_pt3_add413;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add413 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add413 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add413_a), .b(dl_c_pt3_mul410), .sub(kind_q[175]),
         .out_valid(op_valid_nc[315]), .y(c_pt3_add413), .flags(fl_c_pt3_add413)
     );
@@ -7687,7 +7690,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add420_a = kind_q[175] ? dl_f_t0_vB_y[1*W +: W] : dl_c_pt2_wA_x[1*W +: W];
     logic [W-1:0] c_pt3_add420;
     logic [2:0] fl_c_pt3_add420;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add420 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add420 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add420_a), .b(dl_c_pt3_mul417), .sub(kind_q[175]),
         .out_valid(op_valid_nc[319]), .y(c_pt3_add420), .flags(fl_c_pt3_add420)
     );
@@ -7703,7 +7706,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add421_a = kind_q[175] ? dl_f_t0_vB_z[1*W +: W] : dl_c_pt2_wA_y[1*W +: W];
     logic [W-1:0] c_pt3_add421;
     logic [2:0] fl_c_pt3_add421;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add421 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add421 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add421_a), .b(dl_c_pt3_mul418), .sub(kind_q[175]),
         .out_valid(op_valid_nc[320]), .y(c_pt3_add421), .flags(fl_c_pt3_add421)
     );
@@ -7719,7 +7722,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_add422_a = kind_q[175] ? dl_f_t1_wA_x[1*W +: W] : dl_c_pt2_wA_z[1*W +: W];
     logic [W-1:0] c_pt3_add422;
     logic [2:0] fl_c_pt3_add422;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_add422 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_add422 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_add422_a), .b(dl_c_pt3_mul419), .sub(kind_q[175]),
         .out_valid(op_valid_nc[321]), .y(c_pt3_add422), .flags(fl_c_pt3_add422)
     );
@@ -7735,7 +7738,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_sub429_a = kind_q[175] ? dl_f_t1_wA_y[1*W +: W] : dl_c_pt2_vB_x[1*W +: W];
     logic [W-1:0] c_pt3_sub429;
     logic [2:0] fl_c_pt3_sub429;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub429 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub429 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub429_a), .b(dl_c_pt3_mul426), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(c_pt3_sub429), .flags(fl_c_pt3_sub429)
     );
@@ -7751,7 +7754,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_sub430_a = kind_q[175] ? dl_f_t1_wA_z[1*W +: W] : dl_c_pt2_vB_y[1*W +: W];
     logic [W-1:0] c_pt3_sub430;
     logic [2:0] fl_c_pt3_sub430;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub430 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub430 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub430_a), .b(dl_c_pt3_mul427), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(c_pt3_sub430), .flags(fl_c_pt3_sub430)
     );
@@ -7767,7 +7770,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_sub431_a = kind_q[175] ? dl_f_t1_wB_x[1*W +: W] : dl_c_pt2_vB_z[1*W +: W];
     logic [W-1:0] c_pt3_sub431;
     logic [2:0] fl_c_pt3_sub431;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub431 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub431 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub431_a), .b(dl_c_pt3_mul428), .sub(1'b1),
         .out_valid(op_valid_nc[327]), .y(c_pt3_sub431), .flags(fl_c_pt3_sub431)
     );
@@ -7783,7 +7786,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_sub438_a = kind_q[175] ? dl_f_t1_wB_y[1*W +: W] : dl_c_pt2_wB_x[1*W +: W];
     logic [W-1:0] c_pt3_sub438;
     logic [2:0] fl_c_pt3_sub438;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub438 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub438 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub438_a), .b(dl_c_pt3_mul435), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(c_pt3_sub438), .flags(fl_c_pt3_sub438)
     );
@@ -7799,7 +7802,7 @@ module pgs_shared_pipe_tb #(
     assign c_pt3_sub439_a = kind_q[175] ? dl_f_t1_wB_z[1*W +: W] : dl_c_pt2_wB_y[1*W +: W];
     logic [W-1:0] c_pt3_sub439;
     logic [2:0] fl_c_pt3_sub439;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub439 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub439 (
         .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(c_pt3_sub439_a), .b(dl_c_pt3_mul436), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(c_pt3_sub439), .flags(fl_c_pt3_sub439)
     );
@@ -7813,7 +7816,7 @@ module pgs_shared_pipe_tb #(
     // c_pt3_sub440: fp_add @175/175/175 -> @179/179/179 (contact: pt3_sub440 = pt2_wB_z - pt3_mul437)
     logic [W-1:0] c_pt3_sub440;
     logic [2:0] fl_c_pt3_sub440;
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_c_pt3_sub440 (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_SHIFT_DSP)) u_c_pt3_sub440 (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[175]), .a(dl_c_pt2_wB_z[1*W +: W]), .b(dl_c_pt3_mul437), .sub(1'b1),
         .out_valid(op_valid_nc[333]), .y(c_pt3_sub440), .flags(fl_c_pt3_sub440)
     );

@@ -76,6 +76,8 @@ XLS_UNCOVERED: dict[str, tuple[str, Callable[[Any], bool]]] = {
     "friction_sign_bug": ("the injected friction sign bug", bool),
     # XLS compiles the contact and the friction pipe; the lane's shared datapath is not emitted as DSLX yet
     "shared_datapath": ("SHARED_DATAPATH=1 (one datapath per lane; DATAPATH=xls takes SHARED_DATAPATH=0)", bool),
+    # the XLS modules carry adders of their own; fp_add's DSP48E2 form is one of the generated pipes
+    "add_dsp": ("ADD_DSP=1 (the DSP48E2 adders of the generated pipes; the XLS modules have their own)", bool),
 }
 WAVE_ARGS = ("--trace-fst", "--trace-structs")
 
@@ -107,6 +109,9 @@ class KernelBuild:
     # SHARED_DATAPATH: one datapath per lane for both passes (rtl/pgs_lane_datapath.sv), else a contact and a friction
     # pipe per lane (the streaming kernel drains the other pipe at a switch of kinds)
     shared_datapath: bool = True
+    # ADD_SHIFT_DSP: every fp_add of the pipes in its DSP48E2 form (rtl/fp/fp_add.sv, SHIFT_DSP), else in the fabric;
+    # the same results and latency, another design (the fit's figures, sim/fit/resource_model.py KernelConfig.adders)
+    add_dsp: bool = False
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
     # whose pipes: "rtl" the hand-scheduled ones of rtl/generated/, "xls" those Google XLS compiled from their DSLX
     # (rtl/generated/xls/, rtl/gen/xls_flow.py: the same module names, ports and latencies)
@@ -140,8 +145,8 @@ class KernelBuild:
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
         body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words, its friction
         record layout (the tangents derived on chip), the soft contact pipe for a soft job
-        (``SolverParams.soft_keep``) and its lanes' datapath (``KernelJob.shared_datapath``); ``datapath``: whose pipes
-        (:data:`DATAPATHS`)."""
+        (``SolverParams.soft_keep``), its lanes' datapath (``KernelJob.shared_datapath``) and adder form
+        (``KernelJob.add_dsp``); ``datapath``: whose pipes (:data:`DATAPATHS`)."""
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
@@ -151,7 +156,7 @@ class KernelBuild:
                            tangents_on_chip=job.tangents_on_chip,
                            soft_contact=job.params.soft_keep is not None,
                            delay_block_min_depth=job.delay_block_min_depth, shared_datapath=job.shared_datapath,
-                           datapath=datapath)
+                           add_dsp=job.add_dsp, datapath=datapath)
 
     @property
     def name(self) -> str:
@@ -168,6 +173,7 @@ class KernelBuild:
                 + ("_soft" if self.soft_contact else "")
                 + (f"_dl{self.delay_block_min_depth}" if self.delay_block_min_depth else "")
                 + ("" if self.shared_datapath else "_split")
+                + ("_dspadd" if self.add_dsp else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_xls" if self.datapath == "xls" else "")
@@ -192,7 +198,8 @@ class KernelBuild:
                     {"TANGENTS_ON_CHIP": 1} if self.tangents_on_chip else {}) | (
                     {"SOFT_CONTACT": 1} if self.soft_contact else {}) | (
                     {"DELAY_BLOCK_MIN_DEPTH": self.delay_block_min_depth} if self.delay_block_min_depth else {}) | (
-                    {} if self.shared_datapath else {"SHARED_DATAPATH": 0})
+                    {} if self.shared_datapath else {"SHARED_DATAPATH": 0}) | (
+                    {"ADD_SHIFT_DSP": 1} if self.add_dsp else {})
 
     @property
     def layout(self) -> sf.StreamLayout:

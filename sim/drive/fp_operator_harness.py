@@ -3,9 +3,11 @@
 ``sim/harness/fp_ops_tb.sv`` instantiates every rtl/fp operator for one format (``EXP_BITS``, ``MAN_BITS``);
 ``sim/harness/fp_ops_main.cpp`` drives it with one operand pair per cycle and random idle cycles, and writes the
 results of every operator (``sim.drive.fp_operator_vectors.OPS``) per vector, and on its first line each operator's
-LATENCY. Built into ``build/verilator/fp_ops_tb_<format>/``.
+LATENCY. Built into ``build/verilator/fp_ops_tb_<format>/``; with ``add_dsp`` the adders are fp_add's DSP48E2 form
+(``SHIFT_DSP = 1``), built into ``build/verilator/fp_ops_tb_<format>_add_dsp/``.
 
     exe = build_fp_operator_harness("fp16")
+    exe = build_fp_operator_harness("fp16", add_dsp=True)
     results, proc = run_fp_operator_harness(exe, vec, tmp_dir, seed)
 """
 
@@ -29,13 +31,14 @@ MINMAX_LATENCY = 2
 IDLE_PERCENT = 30  # random idle cycles between operand pairs
 
 
-def harness_name(fmt_name: str) -> str:
-    """The build directory name of a format's harness."""
-    return f"{TOP}_{fmt_name}"
+def harness_name(fmt_name: str, add_dsp: bool = False) -> str:
+    """The build directory name of a format's harness (its adders' form)."""
+    return f"{TOP}_{fmt_name}" + ("_add_dsp" if add_dsp else "")
 
 
-def harness_parameters(fmt: NumberFormat) -> dict[str, int]:
-    return {"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "MINMAX_LATENCY": MINMAX_LATENCY}
+def harness_parameters(fmt: NumberFormat, add_dsp: bool = False) -> dict[str, int]:
+    return {"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "MINMAX_LATENCY": MINMAX_LATENCY,
+            "ADD_DSP": int(add_dsp)}
 
 
 def harness_sources() -> list[Path]:
@@ -44,10 +47,13 @@ def harness_sources() -> list[Path]:
 
 
 def build_fp_operator_harness(fmt_name: str, build_dir: Path | None = None, extra_sources: Sequence[Path] = (),
-                              extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = ()) -> Path:
-    """Build the harness of ``fmt_name`` (plus ``extra_*``, e.g. coverage hooks); return the executable."""
-    return build([*harness_sources(), *extra_sources], TOP, parameters=harness_parameters(FORMATS[fmt_name]),
-                 cpp_files=[DRIVER, *extra_cpp_files], build_dir=build_dir, name=harness_name(fmt_name),
+                              extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = (),
+                              add_dsp: bool = False) -> Path:
+    """Build the harness of ``fmt_name`` (plus ``extra_*``, e.g. coverage hooks; ``add_dsp``: the adders in their
+    DSP48E2 form); return the executable."""
+    return build([*harness_sources(), *extra_sources], TOP,
+                 parameters=harness_parameters(FORMATS[fmt_name], add_dsp), cpp_files=[DRIVER, *extra_cpp_files],
+                 build_dir=build_dir, name=harness_name(fmt_name, add_dsp),
                  extra_args=list(extra_args))
 
 

@@ -38,6 +38,9 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
                     help="1: one datapath per lane for the contact and the friction passes (SHARED_DATAPATH build "
                          "parameter, every design's default); 0: a contact and a friction pipe per lane (the default "
                          "with --datapath xls, whose pipes XLS compiles)")
+    ap.add_argument("--add-dsp", type=int, choices=(0, 1), default=0,
+                    help="1: every fp_add of the pipes in its DSP48E2 form (ADD_SHIFT_DSP build parameter: the same "
+                         "results and cycles, the fit's DSP figures); 0: in LUTs and carry chains (the default)")
     ap.add_argument("--impulse-store", choices=("onchip", "records"), default="onchip",
                     help="accumulated impulses in the on-chip RAM, or travelling with the records through DDR "
                          "(IMPULSES_IN_RECORDS build parameter; the window kernel: each fetch of one pass kind, an "
@@ -53,6 +56,7 @@ def kernel_label(args: argparse.Namespace) -> str:
             + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else "")
             + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else "")
             + ("" if getattr(args, "shared_datapath", 1) else "-two-pipes")
+            + ("-dsp-adders" if getattr(args, "add_dsp", 0) else "")
             + ("-xls" if getattr(args, "datapath", "rtl") == "xls" else ""))
 
 
@@ -61,14 +65,15 @@ def datapath_options(args: argparse.Namespace) -> dict[str, bool]:
     ``sim.compile.kernel_build.check_datapath`` refuses early for a datapath that does not cover them (the frame's
     own, such as its inverse-inertia words, are checked when the build is made)."""
     return {"tangents_on_chip": getattr(args, "tangents", "host") == "chip",
-            "shared_datapath": bool(getattr(args, "shared_datapath", 1))}
+            "shared_datapath": bool(getattr(args, "shared_datapath", 1)),
+            "add_dsp": bool(getattr(args, "add_dsp", 0))}
 
 
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
     """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``, the impulses in
     the records with ``--impulse-store records``, the tangent basis derived on chip with ``--tangents chip``, a
-    contact and a friction pipe per lane with ``--shared-datapath 0``."""
-    job = job.with_datapath(bool(getattr(args, "shared_datapath", 1)))
+    contact and a friction pipe per lane with ``--shared-datapath 0``, the DSP48E2 adders with ``--add-dsp 1``."""
+    job = job.with_datapath(bool(getattr(args, "shared_datapath", 1))).with_adders(bool(getattr(args, "add_dsp", 0)))
     if getattr(args, "tangents", "host") == "chip":
         if args.record_window:
             raise ValueError("--tangents chip is a configuration of the streaming kernel (no --record-window)")

@@ -189,9 +189,12 @@ def band_verdict(cfg: rm.KernelConfig, platform: platforms.Platform,
     return BandVerdict(platform, shares, cfg.describe(), gap)
 
 
-def band_or_reason(cfg: rm.KernelConfig, platform: platforms.Platform) -> Union[BandVerdict, rm.NoEstimate]:
+def band_or_reason(cfg: rm.KernelConfig, platform: platforms.Platform,
+                   choose_adders: bool = False) -> Union[BandVerdict, rm.NoEstimate]:
+    """The band of ``cfg`` (its own adder form, or with ``choose_adders`` the one the fit picks,
+    ``rm.with_chosen_adders``: the model-only studies), or why there is none."""
     try:
-        return band_verdict(cfg, platform)
+        return band_verdict(rm.with_chosen_adders(cfg, platform) if choose_adders else cfg, platform)
     except (KeyError, FileNotFoundError) as exc:
         return rm.NoEstimate(str(exc).strip("'\""))
 

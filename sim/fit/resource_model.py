@@ -34,7 +34,13 @@ through at integration), ``body_ports`` (``"lvt"``: every write port a bank repl
 ``rtl/pgs_body_vel_banks.sv``, 2 x lanes reads and writes a cycle, the lane plan keeping a record's reads within
 the banks' ports),
 ``delay_block_min_depth`` (the delay lines from that depth in block RAM instead of LUT RAM), and
-``record_bits`` (word width of the record fields stored in the ring: a storage format per field group).
+``record_bits`` (word width of the record fields stored in the ring: a storage format per field group), and
+``adders`` (``"fabric"``: every ``fp_add`` in LUTs and carry chains; ``"dsp"``: in its DSP48E2 form, ``fp_add_dsp``,
+the alignment and normalization shifts as multiplications by a power of two and the add in the DSP; the build's
+ADD_SHIFT_DSP, ``make sim ADD_DSP=1``). The verdict of a run counts the form it built (:func:`kernel_fit`) and names
+the form the fit picks (:func:`prefers_dsp`: the DSP form where its DSP share stays within the usable share and it
+lowers the configuration's highest share-to-usable ratio of LUT, FF and DSP, LUT then being the tighter resource;
+else the fabric form); the model-only studies (``make band``) take the fit's pick (:func:`with_chosen_adders`).
 
 The estimate is a sum of parts: Yosys of the whole pipes (cached under ``build/resources``) is printed beside it
 by ``make resources``, and ``docs/resources.md`` gives how far apart they lie. Timing closure and the final
@@ -43,6 +49,7 @@ utilisation need Vivado.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -68,6 +75,12 @@ FIGURES_FILE = Path(__file__).parent / "generated" / "resource_figures.json"
 DEFAULT_BODY_BITS = 128  # the body streams' beat of the default build (BODY_IN_W, BODY_OUT_W of rtl/pgs_kernel.sv)
 REGENERATE = "make resources"  # the command that rewrites FIGURES_FILE
 OPERATOR_MODULES = tuple(sorted({mod for _, _, mod in OP_SIGNATURES.values() if mod}))
+# further forms of an operator, each synthesized and figured under its own name: name -> (RTL module, parameters)
+OPERATOR_FORMS: dict[str, tuple[str, tuple[tuple[str, int], ...]]] = {
+    "fp_add_dsp": ("fp_add", (("SHIFT_DSP", 1),)),  # the shifts as multiplications, the add in the DSP48E2
+}
+# the adder forms a configuration can choose (KernelConfig.adders): the figure each form's fp_add instances take
+ADDER_FORMS = {"fabric": "fp_add", "dsp": "fp_add_dsp"}
 KEYS = ("LUT", "FF", "DSP", "BRAM36", "URAM")
 
 
@@ -117,6 +130,9 @@ VENDOR_OPERATORS: dict[tuple[str, str], tuple[VendorFigure, ...]] = {
                          VendorFigure("fadd no_dsp", 5, Resources(lut=338, ff=243, dsp=0), _FANNS)),
     ("fp_mul", "fp32"): (VendorFigure("fmul max_dsp", 3, Resources(lut=123, ff=197, dsp=3), _FMUL),),
     ("fp_add", "fp16"): (VendorFigure("hadd full_dsp", 4, Resources(lut=113, ff=109, dsp=2), _UPCONV),),
+    # the DSP48E2 form beside the vendor's full-DSP adders (the same cores as fp_add's first figure)
+    ("fp_add_dsp", "fp32"): (VendorFigure("fadd full_dsp", 3, Resources(lut=226, ff=177, dsp=2), _FANNS),),
+    ("fp_add_dsp", "fp16"): (VendorFigure("hadd full_dsp", 4, Resources(lut=113, ff=109, dsp=2), _UPCONV),),
     ("fp_mul", "fp16"): (VendorFigure("hmul max_dsp", 3, Resources(lut=34, ff=91, dsp=2), _UPCONV),),
 }
 
@@ -340,8 +356,11 @@ class KernelConfig:
     delay_block_min_depth: int = 0  # the pipes' delay lines at least this deep in block RAM (DELAY_BLOCK_MIN_DEPTH)
     body_bits: int = DEFAULT_BODY_BITS  # the body streams' beat (BODY_IN_W = BODY_OUT_W): the control's figure
     shared_datapath: bool = True  # SHARED_DATAPATH: one datapath per lane for both passes, else two pipes per lane
+    adders: str = "fabric"  # "fabric" | "dsp": the figure of every fp_add instance (ADDER_FORMS)
 
     def __post_init__(self) -> None:
+        if self.adders not in ADDER_FORMS:
+            raise ValueError(f"adders {self.adders!r}: expected {' | '.join(ADDER_FORMS)}")
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
             raise ValueError(f"lanes must be a power of two, not {self.lanes}")
         if self.lanes > 1 and self.window == 0:
@@ -362,6 +381,7 @@ class KernelConfig:
                   + (f" ({self.body_banks} true dual-port banks)" if self.body_ports == "banked" and self.lanes == 1
                      else "")]
         levers.append("one datapath per lane" if self.shared_datapath else "a contact and a friction pipe per lane")
+        levers.append("DSP48E2 adders (fp_add_dsp)" if self.adders == "dsp" else "fabric adders (fp_add)")
         if self.tangents_on_chip:
             levers.append("tangent basis derived on chip")
         if self.soft_contact:
@@ -451,14 +471,20 @@ class Estimate:
         return t
 
 
+def adder_figure_name(cfg: KernelConfig) -> str:
+    """The figure the configuration's fp_add instances take: fp_add (fabric) or fp_add_dsp."""
+    return ADDER_FORMS[cfg.adders]
+
+
 def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[Resources, list[str]]:
     """Operators plus delay lines of one pipe, and the source of each operator's figure."""
     shape = pipe_shape(name, cfg.fmt.man_bits)
     total, sources = Resources(), []
     for mod, n in sorted(shape.operators.items()):
-        fig = operator_figure(mod, cfg.fmt, cfg.operator_source, data)
+        name = adder_figure_name(cfg) if mod == "fp_add" else mod
+        fig = operator_figure(name, cfg.fmt, cfg.operator_source, data)
         total = total + fig.resources.scaled(n)
-        sources.append(f"{n} {mod} ({fig.source})")
+        sources.append(f"{n} {name} ({fig.source})")
     for line in shape.lines:
         total = total + delay_line_resources(line, cfg.fmt.width, cfg.delay_block_min_depth)
     if shape.muxes or shape.kind_stages:
@@ -606,6 +632,9 @@ class FitVerdict:
     limits: dict[str, float]
     config: str
     operator_sources: str = ""  # where each operator's figure came from
+    adders: str = "fabric"  # the adder form the estimate counted (KernelConfig.adders)
+    # the same configuration with the other adder form (None: not asked, or that form cannot be built for the run)
+    other_adders: Optional["FitVerdict"] = None
 
     @property
     def overflows(self) -> list[str]:
@@ -637,13 +666,14 @@ def verdict(est: Estimate, platform: platforms.Platform) -> FitVerdict:
     shares = {k: (total[k] / platform.capacity(k) if platform.capacity(k) else (math.inf if total[k] else 0.0))
               for k in KEYS}
     return FitVerdict(platform, est.total, shares, dict(platforms.USABLE_SHARE), est.config.describe(),
-                      operator_sources(est.config))
+                      operator_sources(est.config), est.config.adders)
 
 
 def operator_sources(cfg: KernelConfig) -> str:
     """Which figure each operator's count was multiplied by: Yosys's, or a published one."""
     by: dict[str, list[str]] = {}
     for mod in OPERATOR_MODULES:
+        mod = adder_figure_name(cfg) if mod == "fp_add" else mod
         vendor = cfg.operator_source == "vendor" and (mod, cfg.fmt.name) in VENDOR_OPERATORS
         label = VENDOR_OPERATORS[(mod, cfg.fmt.name)][0].label if vendor else "Yosys"
         by.setdefault(label, []).append(mod)
@@ -652,6 +682,57 @@ def operator_sources(cfg: KernelConfig) -> str:
 
 def fit(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:
     return verdict(estimate(cfg, platform), platform)
+
+
+def _pressure(v: FitVerdict) -> float:
+    """The highest share-to-usable ratio of LUT, FF and DSP (the resources the adder form trades)."""
+    return max(v.shares[k] / v.limits[k] for k in ("LUT", "FF", "DSP"))
+
+
+def prefers_dsp(fabric: FitVerdict, dsp: FitVerdict) -> bool:
+    """Whether the fit picks the DSP adders over the fabric ones for one configuration: where the DSP form's DSP
+    share stays within the usable share and it lowers the highest share-to-usable ratio of LUT, FF and DSP (so LUT,
+    or FF, was the tighter resource)."""
+    return dsp.shares["DSP"] <= dsp.limits["DSP"] and _pressure(dsp) < _pressure(fabric)
+
+
+def with_chosen_adders(cfg: KernelConfig, platform: platforms.Platform) -> KernelConfig:
+    """``cfg`` with the adder form the fit picks (:func:`prefers_dsp`)."""
+    fabric = fit(dataclasses.replace(cfg, adders="fabric"), platform)
+    dsp = fit(dataclasses.replace(cfg, adders="dsp"), platform)
+    return dataclasses.replace(cfg, adders="dsp" if prefers_dsp(fabric, dsp) else "fabric")
+
+
+def with_other_adders(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:
+    """The verdict of ``cfg`` as built (its own adder form), beside it that of the other form."""
+    other = "fabric" if cfg.adders == "dsp" else "dsp"
+    return dataclasses.replace(fit(cfg, platform), other_adders=fit(dataclasses.replace(cfg, adders=other), platform))
+
+
+def picked_adders(v: FitVerdict) -> str:
+    """The adder form the fit picks for ``v``'s configuration (``v.adders`` when the other form was not figured)."""
+    if v.other_adders is None:
+        return v.adders
+    fabric, dsp = (v, v.other_adders) if v.adders == "fabric" else (v.other_adders, v)
+    return "dsp" if prefers_dsp(fabric, dsp) else "fabric"
+
+
+def adders_text(v: FitVerdict) -> str:
+    """The adder form built and the one the fit picks, with the shares that decide (the built form's tighter
+    resource among LUT, FF, DSP, and DSP) and the option that builds the pick."""
+    built = f"{ADDER_FORMS[v.adders]} ({v.adders}) built"
+    o = v.other_adders
+    if o is None:
+        return built + " (the other form not figured: it is not built for this datapath)"
+    tight = max(("LUT", "FF", "DSP"), key=lambda k: v.shares[k] / v.limits[k])
+    keys = [tight] + (["DSP"] if tight != "DSP" else [])
+    pick = picked_adders(v)
+    if pick == v.adders:
+        cmp = ", ".join(f"{k} {_share(v.shares[k])} against {_share(o.shares[k])}" for k in keys)
+        return f"{built}, the fit's pick too: {cmp} with {ADDER_FORMS[o.adders]}"
+    cmp = ", ".join(f"{k} {_share(o.shares[k])} against {_share(v.shares[k])}" for k in keys)
+    return (f"{built}; the fit picks {ADDER_FORMS[pick]} ({pick}): {cmp} built; command: the same run with "
+            f"ADD_DSP={int(pick == 'dsp')} (--add-dsp {int(pick == 'dsp')})")
 
 
 @dataclass(frozen=True)
@@ -663,14 +744,14 @@ class NoEstimate:
 
 def config_for_job(job: KernelJob, body_bits: int = DEFAULT_BODY_BITS) -> KernelConfig:
     """The configuration a run built: its format, lanes and ring, memories as deep as its scene needs, body streams
-    of ``body_bits``."""
+    of ``body_bits``, its adders' form (``KernelJob.add_dsp``)."""
     plan = job.record_window
     return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
                         window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
                         body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
                         tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None,
                         delay_block_min_depth=job.delay_block_min_depth, body_bits=body_bits,
-                        shared_datapath=job.shared_datapath)
+                        shared_datapath=job.shared_datapath, adders="dsp" if job.add_dsp else "fabric")
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,
@@ -681,9 +762,12 @@ def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: 
                         impulses_resident=impulses_resident)
 
 
-def fit_or_reason(cfg: KernelConfig, platform: platforms.Platform) -> Union[FitVerdict, NoEstimate]:
+def fit_or_reason(cfg: KernelConfig, platform: platforms.Platform,
+                  advise_adders: bool = False) -> Union[FitVerdict, NoEstimate]:
+    """The verdict of ``cfg`` (its own adder form; with ``advise_adders`` the other form's beside it), or why there is
+    none."""
     try:
-        return fit(cfg, platform)
+        return with_other_adders(cfg, platform) if advise_adders else fit(cfg, platform)
     except (KeyError, FileNotFoundError) as exc:
         return NoEstimate(str(exc).strip("'\""))
 
@@ -695,11 +779,14 @@ def short_verdict(v: Union[FitVerdict, NoEstimate]) -> str:
     return "FITS" if v.fits else f"DOES NOT FIT ({v.overflows[0]} {_share(v.shares[v.overflows[0]])})"
 
 
-def kernel_fit(job: KernelJob, dma: str, body_bits: int = DEFAULT_BODY_BITS) -> Union[FitVerdict, NoEstimate]:
-    """The fit verdict of a run's configuration (body streams of ``body_bits``) on its DMA preset's platform."""
+def kernel_fit(job: KernelJob, dma: str, body_bits: int = DEFAULT_BODY_BITS,
+               advise_adders: bool = True) -> Union[FitVerdict, NoEstimate]:
+    """The fit verdict of a run's configuration as built (body streams of ``body_bits``, its adder form) on its DMA
+    preset's platform; with ``advise_adders`` the other adder form's beside it (:func:`adders_text`; off where that
+    form cannot be built, the XLS datapath's)."""
     if dma not in platforms.PLATFORMS:
         return NoEstimate(f"no platform behind the DMA preset {dma!r} (platforms: {', '.join(platforms.PLATFORMS)})")
-    return fit_or_reason(config_for_job(job, body_bits), platforms.get_platform(dma))
+    return fit_or_reason(config_for_job(job, body_bits), platforms.get_platform(dma), advise_adders)
 
 
 def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
@@ -710,4 +797,6 @@ def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
             "LUT, FF, DSP, BRAM36, URAM (share of the device)": v.shares_text(),
             f"verdict (usable: {platforms.describe_usable()})": v.headline(),
             "operator figures": v.operator_sources,
+            "adders (the fit picks the DSP form where its DSP share stays within the usable share and it lowers the "
+            "highest share-to-usable ratio of LUT, FF and DSP)": adders_text(v),
             "estimate": "sim/fit/resource_model.py: per-operator Yosys figures, memories computed (docs/resources.md)"}

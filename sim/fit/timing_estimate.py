@@ -51,6 +51,7 @@ SHARED_PIPE = shared_module()  # a lane's shared datapath of the default options
 # the pipes ``make resources`` synthesizes whole (module -> unit name): their netlists' depth, their Yosys figures
 PIPE_UNITS = {"pgs_contact_pipe": "contact", "pgs_friction_pipe": "friction", "pgs_integrate_pipe": "integrate",
               SHARED_PIPE: "shared"}
+DSP_ADDER_UNIT = rm.ADDER_FORMS["dsp"]  # the operator unit of fp_add's DSP48E2 form (its own Yosys run)
 BLOCK_RAM_BOXES = {"pgs_impulse_ram", "pgs_body_ram"}
 
 
@@ -217,10 +218,16 @@ def timing(cfg: rm.KernelConfig, platform: platforms.Platform, data: Optional[di
         analyses[unit] = a
     if not analyses:
         return NoTiming(f"no timing figures of {fmt} in {TIMING_FILE.name}: `{rm.REGENERATE} FORMATS={fmt}`")
+    control = analyses.get(units["control"])
+    dsp_adder = _dsp_adder_analysis(cfg, data, missing)
+    if dsp_adder is not None:
+        analyses[DSP_ADDER_UNIT] = dsp_adder
     paths = [_path(u, p) for u, a in analyses.items() for p in a["worst"][:1]]
     paths += [_path(u, p) for u, a in analyses.items() for m, p in a["by_module"].items()]
-    control = analyses.get(units["control"])
     notes: set[str] = {n for a in analyses.values() for n in a.get("notes", [])}
+    if cfg.adders == "dsp":
+        notes.add(f"the pipes' paths with the fabric adders (their Yosys runs), beside them {DSP_ADDER_UNIT}'s own "
+                  "(every fp_add of a build with ADD_SHIFT_DSP = 1)")
     if control is not None:
         paths += _boundaries(cfg, control, analyses, figures, notes)
     paths.sort(key=lambda p: -p.delay_ns)
@@ -232,6 +239,17 @@ def timing(cfg: rm.KernelConfig, platform: platforms.Platform, data: Optional[di
                   key=lambda p: -p.delay_ns)
     return TimingVerdict(platform.name, delays.budget(platform.preset.clock_hz, figures), paths, hist, missing,
                          stale + sorted(notes), args)
+
+
+def _dsp_adder_analysis(cfg: rm.KernelConfig, data: dict[str, Any], missing: list[str]) -> Optional[dict[str, Any]]:
+    """The DSP48E2 adder's own analysis, for a configuration whose fp_add instances take that form (the whole pipes
+    were analysed with the fabric form); None for the fabric form, or when it has none (then named in ``missing``)."""
+    if cfg.adders != "dsp":
+        return None
+    a = _analysis(data, cfg.fmt.name, DSP_ADDER_UNIT, 0)
+    if a is None:
+        missing.append(f"{DSP_ADDER_UNIT} in {cfg.fmt.name} (`{rm.REGENERATE} FORMATS={cfg.fmt.name}` adds it)")
+    return a
 
 
 def _distinct(paths: list[TimedPath]) -> list[TimedPath]:

@@ -56,7 +56,8 @@ from models.kernel.register_map import ARG_NAMES
 from sim.fit import delays, logic_depth
 from models.published.thesis import THESIS_BODIES, THESIS_FPGA, THESIS_MANIFOLDS
 from sim.fit.timing_estimate import PIPE_UNITS, SHARED_PIPE, TIMING_FILE, code_digest
-from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, DelayLine,
+from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_FORMS, OPERATOR_MODULES,
+                                    DelayLine,
                                     KernelConfig, Resources, control_unit, delay_line_resources, memories,
                                     figures, pipe_resources, rtl_latency, vendor_rows)
 from sim.compile.verilator_build import REPO_ROOT
@@ -173,8 +174,15 @@ UNIT_LABELS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "
                WINDOW_CONTROL_UNIT: "control of the window kernel with the impulses in the records (not in the totals)"}
 # each floating-point operator alone, once per format (its latency is the RTL's, fp_minmax's the generator's):
 # the per-operator figures of the resource model (sim/fit/resource_model.py), written to sim/fit/generated/
-OPERATOR_UNITS = {mod: Unit(f"op_{mod}", mod, params=(("LATENCY", MINMAX_LATENCY),) if mod == "fp_minmax" else ())
-                  for mod in OPERATOR_MODULES}
+# and each further form of an operator (OPERATOR_FORMS: fp_add's DSP48E2 form, fp_add_dsp) under its own name
+OPERATOR_UNITS = {**{mod: Unit(f"op_{mod}", mod, params=(("LATENCY", MINMAX_LATENCY),) if mod == "fp_minmax" else ())
+                     for mod in OPERATOR_MODULES},
+                  **{name: Unit(f"op_{name}", mod, params=params) for name, (mod, params) in OPERATOR_FORMS.items()}}
+
+
+def operator_name(unit: Unit) -> str:
+    """The figure name of an operator unit: its module, or the form's name (``fp_add_dsp``)."""
+    return unit.name.removeprefix("op_")
 
 
 def unit_named(name: str) -> Unit:
@@ -415,7 +423,7 @@ def write_figures(done: list[UnitResult], path: Path = FIGURES_FILE) -> None:
         if r.unit in CHECK_UNITS:
             continue
         section = "operators" if r.unit.name.startswith("op_") else "units"
-        name = r.unit.top if section == "operators" else r.unit.name
+        name = operator_name(r.unit) if section == "operators" else r.unit.name
         row = figure_row(r)
         if section == "operators" and vendor_rows(name, r.fmt.name):
             row["vendor"] = vendor_rows(name, r.fmt.name)
@@ -463,7 +471,7 @@ def write_timing(done: list[UnitResult], path: Path = TIMING_FILE) -> None:
     for r in done:
         if not r.timing:
             continue
-        name = r.unit.top if r.unit.name.startswith("op_") else r.unit.name
+        name = operator_name(r.unit) if r.unit.name.startswith("op_") else r.unit.name
         data.setdefault("units", {}).setdefault(r.fmt.name, {})[name] = r.timing
     data["units"] = {f: dict(sorted(v.items())) for f, v in sorted(data.get("units", {}).items())}
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -480,7 +488,7 @@ def sum_against_whole(done: list[UnitResult]) -> list[str]:
         if r.unit.name not in PIPE_UNIT_MODULES:
             continue
         committed = figures()["operators"].get(r.fmt.name, {}) if FIGURES_FILE.is_file() else {}
-        ops = {**committed, **{u.unit.top: figure_row(u) for u in done
+        ops = {**committed, **{operator_name(u.unit): figure_row(u) for u in done
                                if u.fmt == r.fmt and u.unit.name.startswith("op_")}}
         model, _ = pipe_resources(PIPE_UNIT_MODULES[r.unit.name], KernelConfig(r.fmt, 0, 0), {"operators": {r.fmt.name: ops}})
         whole = r.resources.as_dict()

@@ -4,13 +4,15 @@
 // of a second fp_add), a * b, a / b, sqrt(a), and minimum / maximum / compare flags of (a, b).
 // The lat_* outputs are the operators' LATENCY parameters, so the C++ driver can check that each
 // result comes out exactly LATENCY cycles after its operands; *_flags are the operators' event flags
-// ({invalid, underflow, overflow}). Driven by fp_ops_main.cpp.
+// ({invalid, underflow, overflow}). ADD_DSP: the two adders in fp_add's DSP48E2 form (SHIFT_DSP).
+// Driven by fp_ops_main.cpp.
 `default_nettype none
 
 module fp_ops_tb #(
     parameter  int EXP_BITS       = 8,
     parameter  int MAN_BITS       = 23,
     parameter  int MINMAX_LATENCY = 2,
+    parameter  bit ADD_DSP        = 1'b0,
     localparam int W              = 1 + EXP_BITS + MAN_BITS
 ) (
     input  wire logic         clk,
@@ -46,10 +48,10 @@ module fp_ops_tb #(
     output logic [7:0]        lat_sqrt,
     output logic [7:0]        lat_minmax
 );
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_DSP)) u_add (
         .clk, .rst, .in_valid, .a, .b, .sub(1'b0), .out_valid(add_valid), .y(add_y), .flags(add_flags)
     );
-    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub (
+    fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .SHIFT_DSP(ADD_DSP)) u_sub (
         .clk, .rst, .in_valid, .a, .b, .sub(1'b1), .out_valid(sub_valid), .y(sub_y), .flags(sub_flags)
     );
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul (

@@ -276,3 +276,83 @@ def test_soft_contact_pipe_adds_four_multipliers() -> None:
     a, b = rm.estimate(base).total, rm.estimate(dataclasses.replace(base, soft_contact=True)).total
     assert b.dsp - a.dsp == 8 and b.bram36 == a.bram36 and b.lut > a.lut
     assert "soft contact pipe" in dataclasses.replace(base, soft_contact=True).describe()
+
+
+def _operator_data(fmt_name: str, fabric: rm.Resources, dsp: rm.Resources) -> dict:
+    """The committed figures with fp_add and fp_add_dsp of ``fmt_name`` replaced."""
+    data = rm.figures()
+    ops = dict(data["operators"][fmt_name])
+    for name, r in (("fp_add", fabric), ("fp_add_dsp", dsp)):
+        ops[name] = {**ops[name], "LUT": r.lut, "FF": r.ff, "DSP": r.dsp}
+    return {**data, "operators": {**data["operators"], fmt_name: ops}}
+
+
+def test_adder_form_counts_each_fp_add_with_its_figure() -> None:
+    cfg = rm.KernelConfig(FP32, *THESIS, window=16384)
+    data = _operator_data("fp32", rm.Resources(lut=400, ff=200), rm.Resources(lut=100, ff=220, dsp=2))
+    fabric = rm.estimate(cfg, ZCU102, data).total
+    dsp = rm.estimate(dataclasses.replace(cfg, adders="dsp"), ZCU102, data).total
+    adders = sum(n * rm.pipe_shape(name, FP32.man_bits).operators.get("fp_add", 0)
+                 for name, n in rm.lane_pipes(cfg) + [("pgs_integrate_pipe", 1)])
+    assert adders > 100  # every fp_add instance of the lane's datapath and the integrate pipe
+    assert fabric.lut - dsp.lut == pytest.approx(300 * adders)
+    assert dsp.dsp - fabric.dsp == pytest.approx(2 * adders)
+    assert dsp.ff - fabric.ff == pytest.approx(20 * adders)
+    assert "fp_add_dsp" in rm.operator_sources(dataclasses.replace(cfg, adders="dsp"))
+    assert "DSP48E2 adders" in dataclasses.replace(cfg, adders="dsp").describe()
+    with pytest.raises(ValueError, match="adders"):
+        rm.KernelConfig(FP32, 1, 1, adders="carry")
+
+
+def test_the_fit_chooses_the_dsp_adders_only_where_they_ease_the_tighter_resource(monkeypatch) -> None:
+    cfg = rm.KernelConfig(FP32, *THESIS, window=16384)
+    # LUT the tighter resource, the DSPs within the usable share: the DSP form
+    cheap = _operator_data("fp32", rm.Resources(lut=443, ff=192), rm.Resources(lut=226, ff=177, dsp=2))
+    monkeypatch.setattr(rm, "figures", lambda path=rm.FIGURES_FILE: cheap)
+    assert rm.with_chosen_adders(cfg, ZCU102).adders == "dsp"
+    # a run's verdict counts the adders it built, the fit's pick a line beside it with the option that builds it
+    v = rm.fit_or_reason(cfg, ZCU102, advise_adders=True)
+    assert isinstance(v, rm.FitVerdict) and v.adders == "fabric" and rm.picked_adders(v) == "dsp"
+    assert v.shares == rm.fit(cfg, ZCU102).shares and v.other_adders is not None
+    line = rm.adders_text(v)
+    assert line.startswith("fp_add (fabric) built; the fit picks fp_add_dsp (dsp): LUT ")
+    assert line.endswith("ADD_DSP=1 (--add-dsp 1)") and line in rm.fit_rows(v).values()
+    assert f"LUT {100 * v.other_adders.shares['LUT']:.1f}% against {100 * v.shares['LUT']:.1f}%" in line
+    dsp = rm.fit_or_reason(dataclasses.replace(cfg, adders="dsp"), ZCU102, advise_adders=True)
+    assert isinstance(dsp, rm.FitVerdict) and dsp.adders == "dsp" and rm.picked_adders(dsp) == "dsp"
+    assert "fp_add_dsp (dsp) built, the fit's pick too" in rm.adders_text(dsp)
+    plain = rm.fit_or_reason(cfg, ZCU102)  # not asked (the XLS datapath): no pick
+    assert isinstance(plain, rm.FitVerdict) and plain.other_adders is None and "not figured" in rm.adders_text(plain)
+    # a DSP form that saves no LUT: fabric
+    same = _operator_data("fp32", rm.Resources(lut=443, ff=192), rm.Resources(lut=443, ff=192, dsp=2))
+    monkeypatch.setattr(rm, "figures", lambda path=rm.FIGURES_FILE: same)
+    assert rm.with_chosen_adders(cfg, ZCU102).adders == "fabric"
+    same_v = rm.fit_or_reason(cfg, ZCU102, advise_adders=True)
+    assert isinstance(same_v, rm.FitVerdict) and rm.picked_adders(same_v) == "fabric"
+    # a DSP form that would take the DSPs past their usable share: fabric
+    hungry = _operator_data("fp32", rm.Resources(lut=443, ff=192), rm.Resources(lut=10, ff=10, dsp=20))
+    monkeypatch.setattr(rm, "figures", lambda path=rm.FIGURES_FILE: hungry)
+    over = rm.fit(dataclasses.replace(cfg, adders="dsp"), ZCU102)
+    assert over.shares["DSP"] > over.limits["DSP"]
+    assert rm.with_chosen_adders(cfg, ZCU102).adders == "fabric"
+
+
+def test_a_job_built_with_the_dsp_adders_is_judged_with_their_figure() -> None:
+    """``--add-dsp 1`` (KernelJob.add_dsp): the build takes ADD_SHIFT_DSP = 1 in a build of its own, and make sim's
+    verdict counts fp_add_dsp's figure for every adder; the XLS datapath refuses it."""
+    from models.tests.test_body_banks import pile_job
+    from models.timing.platforms import get_preset
+    from sim.compile.kernel_build import KernelBuild
+
+    fabric_job, dsp_job = pile_job(), pile_job().with_adders(True)
+    assert rm.config_for_job(fabric_job).adders == "fabric" and rm.config_for_job(dsp_job).adders == "dsp"
+    fabric, dsp = rm.kernel_fit(fabric_job, "zcu102"), rm.kernel_fit(dsp_job, "zcu102")
+    assert isinstance(fabric, rm.FitVerdict) and isinstance(dsp, rm.FitVerdict)
+    assert dsp.adders == "dsp" and dsp.total == rm.fit(rm.config_for_job(dsp_job), ZCU102).total
+    assert dsp.total.dsp > fabric.total.dsp and dsp.total.lut < fabric.total.lut
+    assert dsp.other_adders is not None and dsp.other_adders.total == fabric.total
+    assert "fp_add_dsp" in dsp.operator_sources and "DSP48E2 adders" in dsp.config
+    kb, kb0 = KernelBuild.for_job(dsp_job, get_preset("zcu102")), KernelBuild.for_job(fabric_job, get_preset("zcu102"))
+    assert kb.parameters["ADD_SHIFT_DSP"] == 1 and "ADD_SHIFT_DSP" not in kb0.parameters and kb.name != kb0.name
+    with pytest.raises(ValueError, match="DATAPATH=xls does not cover ADD_DSP=1"):
+        KernelBuild.for_job(dsp_job.with_datapath(False), get_preset("zcu102"), datapath="xls")

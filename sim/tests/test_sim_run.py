@@ -143,6 +143,7 @@ RUN_CASES = [
     (["--driver", "cocotb", "--compile-profile", "pgo"], "COMPILE= is the compiled harness's"),
     (["--datapath", "xls", "--format", "bf16"], "DATAPATH=xls does not cover FORMAT=bf16"),
     (["--datapath", "xls", "--tangents", "chip"], "DATAPATH=xls does not cover TANGENTS=chip"),
+    (["--datapath", "xls", "--add-dsp", "1"], "DATAPATH=xls does not cover ADD_DSP=1"),
 ]
 SWEEP_CASES = [
     (["--formats", "fp32,fp33"], "unknown number format 'fp33'"),

@@ -223,3 +223,20 @@ def test_model_latency_at_the_clock_the_estimate_supports() -> None:
     assert key.startswith(f"model: latency at {hz / 1e6:.0f} MHz (ms; ") and "275 fails" in key
     assert slow[key] == pytest.approx(822_865 / hz * 1e3)
     assert at_estimated_clock(section, te.timing(CFG, ZCU102, data(unit(3.0))), 275e6) == section
+
+
+def test_dsp_adders_add_their_own_deepest_path() -> None:
+    """A build with the DSP48E2 adders: the pipes were analysed with the fabric form, so fp_add_dsp's own deepest path
+    joins the verdict (and decides it where it is the deepest); a unit missing is named; the fabric form ignores it."""
+    d = data(unit(2.0))
+    d["units"]["fp32"][te.DSP_ADDER_UNIT] = {"0": unit(4.8, 10)}
+    dsp_cfg = dataclasses.replace(CFG, adders="dsp")
+    v = te.timing(dsp_cfg, ZCU102, d)
+    assert isinstance(v, te.TimingVerdict) and not v.meets and v.worst.where == te.DSP_ADDER_UNIT
+    assert v.worst.delay_ns == pytest.approx(4.8) and any("fp_add_dsp's own" in n for n in v.notes)
+    fabric = te.timing(CFG, ZCU102, d)
+    assert isinstance(fabric, te.TimingVerdict) and fabric.meets
+    assert all(p.where != te.DSP_ADDER_UNIT for p in fabric.paths)
+    del d["units"]["fp32"][te.DSP_ADDER_UNIT]
+    gone = te.timing(dsp_cfg, ZCU102, d)
+    assert isinstance(gone, te.TimingVerdict) and any("fp_add_dsp in fp32" in m for m in gone.missing)

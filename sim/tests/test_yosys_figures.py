@@ -94,8 +94,13 @@ def test_committed_operator_latencies_are_the_rtl_ones() -> None:
     ops = figures()["operators"]
     for fmt in (FP32, FP16, BF16):
         assert set(ops[fmt.name]) == set(OPERATOR_UNITS)
-        for mod, row in ops[fmt.name].items():
-            assert row["latency"] == rtl_latency(mod, fmt), (fmt.name, mod)
+        for name, row in ops[fmt.name].items():
+            assert row["latency"] == rtl_latency(OPERATOR_UNITS[name].top, fmt), (fmt.name, name)
+    # fp_add's DSP48E2 form: its own figure, the DSPs the shifts and the add take, fewer LUTs than the fabric form
+    for fmt in (FP32, FP16, BF16):
+        fabric, dsp = ops[fmt.name]["fp_add"], ops[fmt.name]["fp_add_dsp"]
+        assert (fabric["DSP"], dsp["DSP"]) == (0, 2) and dsp["LUT"] < fabric["LUT"], fmt.name
+    assert [v["label"] for v in ops["fp32"]["fp_add_dsp"]["vendor"]] == ["fadd full_dsp"]
 
 
 def test_yosys_script_reads_all_sources_and_blackboxes(tmp_path: Path) -> None:

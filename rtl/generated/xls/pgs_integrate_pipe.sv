@@ -19,6 +19,8 @@ module pgs_integrate_pipe #(
     parameter  int TAG_W    = 64,
     // the delay lines at least this deep in block RAM (pgs_delay's BLOCK_MIN_DEPTH; 0: LUT RAM)
     parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
+    // the generated pipes' adder form; the XLS modules have adders of their own: 1 is refused
+    parameter  bit ADD_SHIFT_DSP = 1'b0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 18,
     localparam int N_OUT    = 13,
@@ -60,6 +62,10 @@ module pgs_integrate_pipe #(
         ev_overflow  <= xls_valid && tag_q[TAG_W] ? xls_ev[47:32] : '0;
         ev_underflow <= xls_valid && tag_q[TAG_W] ? xls_ev[31:16] : '0;
         ev_invalid   <= xls_valid && tag_q[TAG_W] ? xls_ev[15:0]  : '0;
+    end
+
+    if (ADD_SHIFT_DSP) begin : g_no_dsp_adders
+        $error("pgs_integrate_pipe (XLS datapath): the XLS modules have adders of their own; ADD_SHIFT_DSP = 1 needs the generated pipes");
     end
 
     if (EXP_BITS == 8 && MAN_BITS == 23) begin : g_e8m23   // fp32
