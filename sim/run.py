@@ -440,7 +440,8 @@ MAKE_SIM_OPTIONS = {"SCENE": "--scene", "SCENE_ARGS": "--scene-args", "ITERS": "
                     "DMA": "--dma", "SEED": "--seed", "MODE": "--mode", "SCHEDULE": "--schedule",
                     "RECORD_WINDOW": "--record-window", "FETCH_PASSES": "--fetch-passes", "LANES": "--lanes",
                     "BODY_BITS": "--body-bits", "DRIVER": "--driver", "IMPULSE_STORE": "--impulse-store",
-                    "TANGENTS": "--tangents", "COMPILE": "--compile-profile"}
+                    "TANGENTS": "--tangents", "COMPILE": "--compile-profile", "SHARED_DATAPATH": "--shared-datapath",
+                    "DATAPATH": "--datapath", "ADD_DSP": "--add-dsp"}
 
 
 def make_sim_argv(command: str) -> list[str]:
