@@ -71,7 +71,7 @@ help:
 	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip SHARED_DATAPATH=1|0"
 	@echo "                   ADD_DSP=0|1: the adders in LUTs, or in DSP48E2s (the fit's report names the form it picks)"
 	@echo "                   the fitting designs: SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records"
-	@echo "                   BODY_BITS=256 (fp32), plus FORMAT=fp16 LANES=2 ADD_DSP=1 (fits at the band's pessimistic end)"
+	@echo "                   BODY_BITS=256 ADD_DSP=1 (fp32), plus FORMAT=fp16 LANES=2 (fp16)"
 	@echo "  make sweep       kernel time against error over SWEEP_ITERS x FORMATS (IMPULSE_STORES=onchip,records, MODE=model)"
 	@echo "  make peers       the same frame on the engines a user could pick instead (Warp, MuJoCo), beside our designs"
 	@echo "  make csim        the HLS C++ kernel (hls_export/) in C simulation, bit for bit against the golden model"
