@@ -51,6 +51,7 @@ class Configuration:
     friction_words: int = 0  # MU_W: 1 a friction coefficient per manifold (the Bullet 2 worlds' build)
     tangents_on_chip: bool = False  # TANGENTS=chip (TANGENTS_ON_CHIP = 1): friction records without t0, t1
     soft_keep: tuple[float, float] | None = None  # SOFT_CONTACT = 1: the runs solve Box2D's soft rows with this keep
+    add_dsp: bool = False  # ADD_DSP=1: the adders in DSP48E2s (ADD_SHIFT_DSP = 1)
     beat_preset: str = "zcu102"  # the DMA preset whose stream beat the constraint stream has
     readme: str = ""  # the README row (or feature) this configuration stands for
     build_options: tuple[tuple[str, Any], ...] = ()  # other KernelBuild fields of this configuration, by name
@@ -66,7 +67,8 @@ class Configuration:
                          body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window),
                                                        self.lanes),
                          delay_block_min_depth=default_delay_block_min_depth(self.fmt, self.impulses_in_records,
-                                                                             bool(self.record_window), self.lanes))
+                                                                             bool(self.record_window), self.lanes),
+                         add_dsp=self.add_dsp)
         return dataclasses.replace(kb, **dict(self.build_options))
 
     def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:
@@ -79,7 +81,7 @@ class Configuration:
         hazard = default_window(self.fmt, get_preset(self.beat_preset).stream_bits, window_kernel=self.record_window > 0)
         if self.soft_keep is not None:
             params = dataclasses.replace(params, soft_keep=self.soft_keep)
-        job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard)
+        job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard).with_adders(self.add_dsp)
         if job.friction_words != self.friction_words:
             if self.friction_words:
                 raise ValueError(f"{self.name}: the scene has no friction coefficient per manifold "
@@ -111,14 +113,15 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
     Configuration("window-fp16-l4", FP16, record_window=DEFAULT_DEPTH, lanes=4, body_bits=512,
                   readme="window kernel, fp16, 4 lanes (`FORMAT=fp16 RECORD_WINDOW=16384 LANES=4 BODY_BITS=512`)"),
     Configuration("window-fp32-records", FP32, record_window=8192, impulses_in_records=True, body_bits=256,
-                  readme="window kernel, fp32, one lane, impulses in the records, body velocities in 8 banks: the "
-                         "fitting fp32 headline (`make sim SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 "
-                         "IMPULSE_STORE=records BODY_BITS=256`)"),
+                  add_dsp=True,
+                  readme="window kernel, fp32, one lane, impulses in the records, body velocities in 8 banks, the "
+                         "adders in DSP48E2s: the fitting fp32 headline (`make sim SCENE=thesis SCHEDULE=sweep "
+                         "RECORD_WINDOW=8192 IMPULSE_STORE=records BODY_BITS=256 ADD_DSP=1`)"),
     Configuration("window-fp16-records-l2", FP16, record_window=8192, lanes=2, impulses_in_records=True,
-                  body_bits=256,
-                  readme="window kernel, fp16, two lanes, impulses in the records, body velocities in 16 banks: the "
-                         "fitting fp16 headline (`make sim SCENE=thesis SCHEDULE=sweep FORMAT=fp16 "
-                         "RECORD_WINDOW=8192 LANES=2 IMPULSE_STORE=records BODY_BITS=256`)"),
+                  body_bits=256, add_dsp=True,
+                  readme="window kernel, fp16, two lanes, impulses in the records, body velocities in 16 banks, the "
+                         "adders in DSP48E2s: the fitting fp16 headline (`make sim SCENE=thesis SCHEDULE=sweep "
+                         "FORMAT=fp16 RECORD_WINDOW=8192 LANES=2 IMPULSE_STORE=records BODY_BITS=256 ADD_DSP=1`)"),
     Configuration("stream-fp32-records-tangents", FP32, impulses_in_records=True, tangents_on_chip=True,
                   readme="fp32 records design with the tangent basis derived on chip "
                          "(`make sim IMPULSE_STORE=records TANGENTS=chip`)"),
