@@ -22,8 +22,8 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.timing import cycle_model
 from models.timing.platforms import get_preset
 from sim.compare import retire_cycles
+from sim.compile.artefacts import KernelStore, kernel_store_root
 from sim.compile.kernel_build import KernelBuild, default_window
-from sim.compile.verilator_build import BUILD_ROOT
 from sim.drive.kernel_step import run_kernel_step
 from sim.drive.seed import run_seed
 
@@ -39,8 +39,10 @@ def pile_job() -> KernelJob:
 
 
 def dsp_form_elaborated(kb: KernelBuild, where: str) -> bool:
-    """Whether the build's model has DSP-form registers of an fp_add instance under the hierarchy ``where``."""
-    words = (w for h in (BUILD_ROOT / kb.name).glob("*.h") for w in h.read_text().split())
+    """Whether the build's model (the kernel store's build of ``kb``, the one the runs here used) has DSP-form
+    registers of an fp_add instance under the hierarchy ``where``."""
+    build_dir = KernelStore(kernel_store_root()).executable(kb)[0].parent
+    words = (w for h in build_dir.glob("*.h") for w in h.read_text().split())
     return any(where in w and DSP_REGISTER in w for w in words)
 
 
