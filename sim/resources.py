@@ -18,8 +18,7 @@ from sim.fit.resource_model import FIGURES_FILE, VENDOR_OPERATORS, rtl_latency
 from sim.fit.timing_estimate import TIMING_FILE
 from sim.fit.yosys_figures import (BUILD, CHECK_SLOTS, DELAY_CHECKS, IMPULSE_CHECK, OPERATOR_UNITS, UNITS, ZCU102,
                                    ResourcePoint, delay_check_line, memory_resources, operator_name, prepare_sources,
-                                   report,
-                                   sum_against_whole, timing_lines, unit_result, write_figures, write_timing)
+                                   report, sum_against_whole, timing_lines, unit_result, write_figures, write_timing)
 from sim.parallel.executor import parse_executor, run_points
 
 def main(argv: list[str] | None = None) -> int:

@@ -30,6 +30,8 @@ ADD_SHIFT_DSP_PARAM = [
 def operator_params(mod: str) -> str:
     """The parameter list of an instance of the flagged operator ``mod``: fp_add takes the pipe's adder form."""
     return "#(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)" + (", .SHIFT_DSP(ADD_SHIFT_DSP))" if mod == "fp_add" else ")")
+
+
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
 
 
@@ -52,6 +54,7 @@ def comb_assign(op: str, name: str, ops: list[str]) -> str:
     if op == "is_pos":
         return f"    assign {name} = !{ops[0]}[W-1] && ({ops[0]}[W-2:MAN_BITS] != '0);   // not NaN: a > 0"
     raise ValueError(f"{op!r} is not a combinational operation ({', '.join(COMB_OPS)})")
+
 
 def expr_text(v: Value) -> str:
     """An operation as the comment of the value it gives (operands by name, the inputs without their ``in_``)."""

@@ -471,9 +471,10 @@ class Estimate:
         return t
 
 
-def adder_figure_name(cfg: KernelConfig) -> str:
-    """The figure the configuration's fp_add instances take: fp_add (fabric) or fp_add_dsp."""
-    return ADDER_FORMS[cfg.adders]
+def operator_figure_name(mod: str, cfg: KernelConfig) -> str:
+    """The figure an instance of operator ``mod`` takes in the configuration: its own, except fp_add's, which is its
+    adder form's (fp_add in the fabric, fp_add_dsp)."""
+    return ADDER_FORMS[cfg.adders] if mod == "fp_add" else mod
 
 
 def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[Resources, list[str]]:
@@ -481,10 +482,10 @@ def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[
     shape = pipe_shape(name, cfg.fmt.man_bits)
     total, sources = Resources(), []
     for mod, n in sorted(shape.operators.items()):
-        name = adder_figure_name(cfg) if mod == "fp_add" else mod
-        fig = operator_figure(name, cfg.fmt, cfg.operator_source, data)
+        fig_name = operator_figure_name(mod, cfg)
+        fig = operator_figure(fig_name, cfg.fmt, cfg.operator_source, data)
         total = total + fig.resources.scaled(n)
-        sources.append(f"{n} {name} ({fig.source})")
+        sources.append(f"{n} {fig_name} ({fig.source})")
     for line in shape.lines:
         total = total + delay_line_resources(line, cfg.fmt.width, cfg.delay_block_min_depth)
     if shape.muxes or shape.kind_stages:
@@ -672,8 +673,7 @@ def verdict(est: Estimate, platform: platforms.Platform) -> FitVerdict:
 def operator_sources(cfg: KernelConfig) -> str:
     """Which figure each operator's count was multiplied by: Yosys's, or a published one."""
     by: dict[str, list[str]] = {}
-    for mod in OPERATOR_MODULES:
-        mod = adder_figure_name(cfg) if mod == "fp_add" else mod
+    for mod in (operator_figure_name(m, cfg) for m in OPERATOR_MODULES):
         vendor = cfg.operator_source == "vendor" and (mod, cfg.fmt.name) in VENDOR_OPERATORS
         label = VENDOR_OPERATORS[(mod, cfg.fmt.name)][0].label if vendor else "Yosys"
         by.setdefault(label, []).append(mod)
@@ -697,10 +697,8 @@ def prefers_dsp(fabric: FitVerdict, dsp: FitVerdict) -> bool:
 
 
 def with_chosen_adders(cfg: KernelConfig, platform: platforms.Platform) -> KernelConfig:
-    """``cfg`` with the adder form the fit picks (:func:`prefers_dsp`)."""
-    fabric = fit(dataclasses.replace(cfg, adders="fabric"), platform)
-    dsp = fit(dataclasses.replace(cfg, adders="dsp"), platform)
-    return dataclasses.replace(cfg, adders="dsp" if prefers_dsp(fabric, dsp) else "fabric")
+    """``cfg`` with the adder form the fit picks (:func:`picked_adders`)."""
+    return dataclasses.replace(cfg, adders=picked_adders(with_other_adders(cfg, platform)))
 
 
 def with_other_adders(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:

@@ -57,8 +57,7 @@ from sim.fit import delays, logic_depth
 from models.published.thesis import THESIS_BODIES, THESIS_FPGA, THESIS_MANIFOLDS
 from sim.fit.timing_estimate import PIPE_UNITS, SHARED_PIPE, TIMING_FILE, code_digest
 from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_FORMS, OPERATOR_MODULES,
-                                    DelayLine,
-                                    KernelConfig, Resources, control_unit, delay_line_resources, memories,
+                                    DelayLine, KernelConfig, Resources, control_unit, delay_line_resources, memories,
                                     figures, pipe_resources, rtl_latency, vendor_rows)
 from sim.compile.verilator_build import REPO_ROOT
 
