@@ -39,6 +39,9 @@ SHARED_DATAPATH ?= $(if $(filter xls,$(DATAPATH)),0,1)
 # the pipes' adders in make sim: 0 in LUTs and carry chains, 1 every fp_add in its DSP48E2 form (ADD_SHIFT_DSP: the same
 # results and cycles; the fit verdict counts the form built and names the one it would pick; not with DATAPATH=xls)
 ADD_DSP ?= 0
+# the body record's inverse-inertia words in make sim: build (the default build's 3, 6 for the full matrix) or scene (as
+# few as the scene needs: 1 where every dynamic body is isotropic, IINV_W = 1)
+INERTIA ?= build
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
@@ -70,8 +73,9 @@ help:
 	@echo "                   the design: SCHEDULE=hazard|sweep|... RECORD_WINDOW=0|8192 LANES=1|2|4 FETCH_PASSES=0"
 	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip SHARED_DATAPATH=1|0"
 	@echo "                   ADD_DSP=0|1: the adders in LUTs, or in DSP48E2s (the fit's report names the form it picks)"
+	@echo "                   INERTIA=build|scene: the default build's 3 inverse-inertia words, or as few as the scene needs"
 	@echo "                   the fitting designs: SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records"
-	@echo "                   BODY_BITS=256 ADD_DSP=1 (fp32), plus FORMAT=fp16 LANES=2 (fp16)"
+	@echo "                   BODY_BITS=256 ADD_DSP=1 INERTIA=scene (fp32), plus FORMAT=fp16 LANES=2 (fp16)"
 	@echo "  make sweep       kernel time against error over SWEEP_ITERS x FORMATS (IMPULSE_STORES=onchip,records, MODE=model)"
 	@echo "  make peers       the same frame on the engines a user could pick instead (Warp, MuJoCo), beside our designs"
 	@echo "  make csim        the HLS C++ kernel (hls_export/) in C simulation, bit for bit against the golden model"
@@ -131,7 +135,7 @@ sim: $(STAMP)
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
 		--tangents $(TANGENTS) --compile-profile $(COMPILE) --shared-datapath $(SHARED_DATAPATH) --datapath $(DATAPATH) \
-		--add-dsp $(ADD_DSP)
+		--add-dsp $(ADD_DSP) --inertia $(INERTIA)
 
 PEER_RUNS ?= 7
 # each MuJoCo model runs in a child process within these (the thesis frame needs MUJOCO_BUDGET=2400 MUJOCO_MEMORY_GB=16)
@@ -160,7 +164,8 @@ stability: $(STAMP)
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED) \
 		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS) \
-		--impulse-stores $(IMPULSE_STORES) --schedule $(SCHEDULE) --mode $(MODE) --executor $(or $(EXECUTOR),local:1)
+		--impulse-stores $(IMPULSE_STORES) --schedule $(SCHEDULE) --mode $(MODE) --add-dsp $(ADD_DSP) --inertia $(INERTIA) \
+		--executor $(or $(EXECUTOR),local:1)
 
 # every kernel configuration of sim/coverage/configurations.py, each on its own (COVERAGE_CONFIGS=a,b: some)
 coverage: $(STAMP)

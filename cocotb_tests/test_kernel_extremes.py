@@ -22,8 +22,8 @@ pass of the fp16 two-lane run is a fetch of its own.
 
 Five builds the suite already makes (no build of their own): the streaming kernel in fp32
 (``build/verilator/pgs_kernel_e8m23_c512``) and fp16 (``..._e5m10_c512``), the two-lane fp32 window kernel
-(``..._e8m23_c512_w1024x8_l2``) and the window kernels with the impulses in the records, the fitting designs'
-RTL with a ring of 1,024 (fp32 one lane, ``..._e8m23_c512_w1024x8_ir_bk8_dl129``; fp16 two lanes,
+(``..._e8m23_c512_w1024x8_l2_dl129``) and the window kernels with the impulses in the records, the fitting designs'
+RTL with a ring of 1,024 (fp32 one lane, ``..._e8m23_c512_w1024x8_ir_bk8``; fp16 two lanes,
 ``..._e5m10_c512_w1024x8_l2_ir_bk16_dl129``, in the interleaved order), each on the pile through the zcu102 DMA
 model with random stream gaps and output backpressure. The seed draws the values and the stream timing; it is printed,
 and ``SEED=<int>`` reruns one.

@@ -5,9 +5,9 @@ within the fetch, and the last pass of each fetch writes them to ``m_axis_imp``,
 writes to the DDR impulse buffer the next fetch's records are read with).
 
 Two Verilator builds, each with a ring of 1,024 records and the zcu102 preset's 512-bit beats: fp32 with one lane
-and the body velocities in eight banks, its long delay lines marked for block RAM
-(``pgs_kernel_e8m23_c512_w1024x8_ir_bk8_dl129``, the build of ``make sim RECORD_WINDOW=... IMPULSE_STORE=records``),
-and fp16 with two lanes (``..._e5m10_c512_w1024x8_l2_ir``).
+and the body velocities in eight banks (``pgs_kernel_e8m23_c512_w1024x8_ir_bk8``, the build of ``make sim
+RECORD_WINDOW=... IMPULSE_STORE=records``), and fp16 with two lanes, its delay lines from 129 deep marked for block RAM
+(``..._e5m10_c512_w1024x8_l2_ir_bk16_dl129``).
 ``sim.drive.kernel_step`` compares bit for bit the trace (put back into pass order), the body-out stream and the
 impulse-out stream (one record per window record and fetch, TLAST per fetch) with the golden model of the same step:
 

@@ -29,7 +29,8 @@ its squared angular velocity overflows in the integration (and the step stays bi
 Inverse inertia (``models/setup/inertia.py``): ``test_pgs_kernel_full_inverse_inertia`` runs a user world of rotated
 non-cube boxes in Bullet 2's convention (``docs/rotated_boxes_world.py``): the symmetric 3x3 per body, the kernel
 built with the 6-word body record (``IINV_W = 6``), bit-exact, and its cycles are the cycle model's;
-``test_pgs_kernel_scalar_inverse_inertia`` runs the stack's cubes on the 1-word build (``IINV_W = 1``).
+``test_pgs_kernel_scalar_inverse_inertia`` runs the stack's cubes on the 1-word build (``IINV_W = 1``, ``make sim
+INERTIA=scene``), bit-exact, and with deterministic streams its cycles are the cycle model's.
 Friction: ``test_pgs_kernel_manifold_friction`` runs a world of mixed shapes and frictions
 (``docs/mixed_shapes_world.py``) on the build whose friction records carry each manifold's coefficient
 (``MU_W = 1``), bit-exact, its cycles the cycle model's.
@@ -191,17 +192,35 @@ def test_asset_worlds_through_the_rtl(world: str, tmp_path: Path) -> None:
     assert agree.cycles_rtl == stated[{"jenga_tower": "jenga", "duck_lego_pile": "duck-lego"}[world]]
 
 
-def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
-    """The stack's cubes (the scalar mode: one inverse-inertia value per body) on the 1-word build (IINV_W = 1, the
-    15-word body record), with random stream gaps and backpressure: bit-exact with the golden model."""
+def _scalar_stack_job() -> KernelJob:
+    """The stack's cubes (the scalar mode: one inverse-inertia value per body) on the build with the scene's
+    inverse-inertia words (``make sim INERTIA=scene``: the 1-word build, IINV_W = 1, the 15-word body record)."""
     frame = scenes.load_or_capture("stack", **SCENES["stack"])
     job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "pybullet", default_window(FP32, 512))
-    assert job.bodies.inertia_mode is InertiaMode.SCALAR
-    res = run_kernel_step(job, get_preset("zcu102"), tmp_path, _seed(), GAP_PERMILLE, BP_PERMILLE, inertia_words=1)
+    assert job.bodies.inertia_mode is InertiaMode.SCALAR and job.inertia_words == 3
+    return job.with_inertia(True)
+
+
+def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
+    """The 1-word build on the stack with random stream gaps and backpressure: bit-exact with the golden model."""
+    job = _scalar_stack_job()
+    assert job.inertia_words == 1
+    res = run_kernel_step(job, get_preset("zcu102"), tmp_path, _seed(), GAP_PERMILLE, BP_PERMILLE)
     assert res.bit_exact, res.comparison.first_mismatch
     assert res.comparison.records == job.manifold_passes and res.comparison.bodies == job.bodies.num_bodies
     print(f"\n[stack/fp32/1 word] cycles {res.cycles}, bit-exact: {res.comparison.records} trace records, "
           f"{res.comparison.bodies} bodies")
+
+
+def test_pgs_kernel_scalar_inverse_inertia_cycles(tmp_path: Path) -> None:
+    """The 1-word build (the same build) with deterministic streams: every retire cycle, the total and the stall and
+    bubble counters are the cycle model's, whose LOAD takes the shorter body record's beats."""
+    job = _scalar_stack_job()
+    pred = cycle_model.predict_job(job, get_preset("zcu102"))
+    assert pred.phases["SOLVE"] < cycle_model.predict_job(job.with_inertia(False), get_preset("zcu102")).phases["SOLVE"]
+    agree = run_deterministic(job, get_preset("zcu102"), pred, tmp_path)
+    print(f"\n[stack/fp32/1 word] {agree.describe()}")
+    assert agree.ok, agree.first_mismatch
 
 
 def check_cycle_bound(job: KernelJob, preset: DmaPreset, cycles: int) -> None:

@@ -191,6 +191,8 @@ class SweepPoint:
     ladder: tuple[int, ...] = dataclasses.field(default=(), compare=False)
     # the format's rank in the sweep (the first format highest): its points run one format after the other
     rank: int = dataclasses.field(default=0, compare=False)
+    add_dsp: int = 0  # the adders' form (--add-dsp: 1 in DSP48E2s): the same cycles and bits, the fit's figures
+    inertia: str = "build"  # the body record's inverse-inertia words (--inertia: "scene" as few as the scene needs)
     # the frame's exact reference, computed once by the driver (None: the worker computes it)
     exact: exact_error.AnyExactStep | None = dataclasses.field(default=None, compare=False)
 
@@ -201,6 +203,9 @@ class SweepPoint:
             desc.pop("impulse_store")
         if self.schedule == "hazard":  # and of the hazard order what it was before schedules
             desc.pop("schedule")
+        for name, default in (("add_dsp", 0), ("inertia", "build")):  # the defaults keep the keys they had
+            if desc[name] == default:
+                desc.pop(name)
         digest = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:12]
         design = "" if self.impulse_store == "onchip" else f"-{self.impulse_store}"
         return f"{self.fmt}{design}-it{self.iterations}-{self.mode}-{digest}"
@@ -218,7 +223,7 @@ class SweepPoint:
                 f" --mode {self.mode} --dma {self.dma} --exact-budget {self.exact_budget:g}"
                 f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
                 f" --body-bits {self.body_bits} --impulse-stores {self.impulse_store} --schedule {self.schedule}"
-                f" --out {ALONE_DIR}")
+                f" --add-dsp {self.add_dsp} --inertia {self.inertia} --out {ALONE_DIR}")
 
     def run(self) -> dict[str, Any]:
         use_kernel_store(KernelStore(kernel_store_root()))
@@ -396,7 +401,7 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     ladder = tuple(sorted(set(iter_list)))
     points = [SweepPoint(digest, source, fmt.name, how, iters, args.mode, args.dma, args.seed, args.exact_budget,
                          args.record_window, args.fetch_passes, args.lanes, args.body_bits, source_digest(), design,
-                         args.schedule, ladder, len(formats) - rank)
+                         args.schedule, ladder, len(formats) - rank, args.add_dsp, args.inertia)
               for rank, (fmt, how) in enumerate(formats) for design in designs for iters in iter_list]
     mode = "-model" if args.mode == "model" else ""
     kernel = kernel_label(argparse.Namespace(**{**vars(args), "impulse_store": "onchip"}))  # designs: below

@@ -18,9 +18,11 @@ BLOCK_MIN_DEPTH = 65
 # the window kernel with the impulses in the records and two pipes per lane, fp32 or two lanes, binds on LUTs and
 # block RAM together (its ring and body banks take block RAM): its lines from 129 deep, the longest, in block RAM
 # (thesis frame, ring 8,192: fp32 one lane LUT 84.2%, BRAM36 94.8%, fp16 two lanes 83.2% and 89.1%; from 65 deep the
-# block RAM overflows). With the shared datapath (one per lane) the LUTs leave room for every line in LUT RAM, and the
-# block RAM binds: fp32 one lane LUT 74.8%, BRAM36 91.1% (from 129 deep in block RAM: 70.5% and 96.3%, over the 95%
-# usable), fp16 two lanes 74.7% and 82.9% (sim/fit/resource_model.py, 2026-12-06)
+# block RAM overflows). With the shared datapath (one per lane) one lane's LUTs leave room for every line in LUT RAM
+# and the block RAM binds: fp32 one lane LUT 68.8%, BRAM36 91.1% (from 129 deep in block RAM: 64.4% and 96.3%, over
+# the 95% usable). Two lanes bind on LUTs: fp16 with the DSP48E2 adders 71.1% (84.3% at the band's pessimistic end of
+# 85% usable) and 82.9% block RAM with every line in LUT RAM; from 129 deep in block RAM 66.9% (79.7%) and 92.1%, with
+# the scene's 1-word inverse inertia 83.8% (sim/fit/resource_model.py, sim/fit/estimate_band.py, 2026-12-06)
 WINDOW_BLOCK_MIN_DEPTH = 129
 
 
@@ -30,13 +32,13 @@ def default_delay_block_min_depth(fmt: NumberFormat, impulses_in_records: bool, 
     of 32 bits or more keeps its lines from :data:`BLOCK_MIN_DEPTH` deep in block RAM (its LUTs bind it: with the
     tangent basis derived on chip and two pipes per lane it needs 87.6% of the ZCU102's LUTs with every line in LUT
     RAM, against 85% usable, while a third of the block RAM is free; with the shared datapath 82.7%, and 71.8% from
-    65 deep in block RAM), the window kernel with the impulses in the records and two pipes per lane from
-    :data:`WINDOW_BLOCK_MIN_DEPTH` deep in fp32 or with lanes; every other build keeps them in LUT RAM (0), the window
-    kernel with the shared datapath included."""
+    65 deep in block RAM), the window kernel with the impulses in the records from :data:`WINDOW_BLOCK_MIN_DEPTH` deep
+    with lanes, and with one lane and two pipes per lane in fp32; every other build keeps them in LUT RAM (0), the
+    one-lane window kernel with the shared datapath included."""
     if not impulses_in_records:
         return 0
     if window:
-        return WINDOW_BLOCK_MIN_DEPTH if not shared_datapath and (fmt.width >= 32 or lanes > 1) else 0
+        return WINDOW_BLOCK_MIN_DEPTH if lanes > 1 or (not shared_datapath and fmt.width >= 32) else 0
     return BLOCK_MIN_DEPTH if fmt.width >= 32 else 0
 
 

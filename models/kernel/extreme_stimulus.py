@@ -4,7 +4,8 @@ floating-point exception paths.
 The scenes make values of a few orders of magnitude around 1, so an operator's overflow, underflow and invalid
 flags rise only where an edit forces one value (``sim/coverage/input_edits.py``: the largest finite velocity).
 :func:`extreme_magnitudes` keeps a step's structure (bodies, manifolds, schedule, window plan, which bodies are
-dynamic) and replaces its numbers: each word of the constraint records, the body records, the integration
+dynamic, the inverse-inertia words its build carries: one value per body on the 1-word build) and replaces its
+numbers: each word of the constraint records, the body records, the integration
 operands and, where the impulses travel with the records, the start impulses takes a random sign and a magnitude
 ``2**e`` with ``e`` uniform from the smallest subnormal's exponent to the format's largest, rounded to the format
 (the top binade's values above the largest finite are clamped to it; the formats flush subnormals to zero, so the
@@ -54,13 +55,15 @@ def _constraints(cons: ConstraintSet, draw: _Draw) -> ConstraintSet:
                                         for name in ConstraintSet._REAL_FIELDS})
 
 
-def _bodies(bodies: BodyTable, draw: _Draw) -> BodyTable:
+def _bodies(bodies: BodyTable, draw: _Draw, isotropic: bool = False) -> BodyTable:
+    """``isotropic``: one inverse-inertia value per body, repeated (the job's build carries one word per body)."""
     dyn = bodies.dynamic
+    inertia = draw.positive_normal((bodies.num_bodies, 1) if isotropic else bodies.inv_inertia.shape)
     return BodyTable(position=draw.signed(bodies.position.shape), orientation=draw.signed(bodies.orientation.shape),
                      linear_velocity=draw.signed(bodies.linear_velocity.shape),
                      angular_velocity=draw.signed(bodies.angular_velocity.shape),
                      inv_mass=np.where(dyn, draw.positive_normal(bodies.inv_mass.shape), 0.0),
-                     inv_inertia=np.where(dyn[:, None], draw.positive_normal(bodies.inv_inertia.shape), 0.0))
+                     inv_inertia=np.where(dyn[:, None], np.broadcast_to(inertia, bodies.inv_inertia.shape), 0.0))
 
 
 def _integration(draw: _Draw) -> IntegrationParams:
@@ -75,7 +78,8 @@ def extreme_magnitudes(job: KernelJob, seed: int) -> KernelJob:
         raise ValueError("draw the extremes before the tangents are derived (the kernel derives them from the "
                          "normals): extreme_magnitudes(job).tangents_derived()")
     draw = _Draw(job.fmt, seed)
-    out = dataclasses.replace(job, cons=_constraints(job.cons, draw), bodies=_bodies(job.bodies, draw),
+    out = dataclasses.replace(job, cons=_constraints(job.cons, draw),
+                              bodies=_bodies(job.bodies, draw, isotropic=job.inertia_words == 1),
                               iparams=_integration(draw))
     if not job.impulses_in_records:
         return out

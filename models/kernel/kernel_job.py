@@ -53,6 +53,9 @@ class KernelJob:
     # every fp_add of the pipes in its DSP48E2 form (ADD_SHIFT_DSP = 1: the same results and cycles, another design's
     # resources), else in LUTs and carry chains (0, the default)
     add_dsp: bool = False
+    # the body record's inverse-inertia words as few as the scene needs (IINV_W = 1 where every dynamic body is
+    # isotropic, ``sf.kernel_inertia_words``), else the default build's 3 (6 for the full matrix)
+    scene_inertia: bool = False
 
     def __post_init__(self) -> None:
         if self.initial is None:
@@ -103,6 +106,11 @@ class KernelJob:
     def with_adders(self, dsp: bool) -> "KernelJob":
         """This step on pipes whose adders take the DSP48E2 form (``dsp``) or the fabric's."""
         return dataclasses.replace(self, add_dsp=dsp)
+
+    def with_inertia(self, scene: bool) -> "KernelJob":
+        """This step on the build whose body records carry the inverse-inertia words the scene needs (``scene``: 1
+        for isotropic bodies) or the default build's (3, or 6 for the full matrix)."""
+        return dataclasses.replace(self, scene_inertia=scene)
 
     def impulses_travelling(self, initial: Impulses | None = None) -> "KernelJob":
         """This step on the kernel whose impulses travel with the records, starting from ``initial`` (per manifold,
@@ -193,7 +201,7 @@ class KernelJob:
     @property
     def inertia_words(self) -> int:
         """Inverse-inertia words per body of the kernel build that runs this step (``sf.kernel_inertia_words``)."""
-        return sf.kernel_inertia_words(self.bodies)
+        return sf.kernel_inertia_words(self.bodies, self.scene_inertia)
 
     @property
     def body_banks(self) -> int:

@@ -119,12 +119,16 @@ def body_in_word_count(inertia_words: int = KERNEL_INERTIA_WORDS) -> int:
 BODY_IN_WORDS = body_in_word_count()
 
 
-def kernel_inertia_words(bodies: BodyTable) -> int:
+def kernel_inertia_words(bodies: BodyTable, scene: bool = False) -> int:
     """The inverse-inertia words of the kernel build that runs ``bodies`` (its ``IINV_W``): 6 where the table is in
     the full mode (a rotated non-cube body), else the default build's 3 (a scalar body repeats its value there), so
-    that the built-in scenes and the thesis frame keep their build, their body records and their cycles."""
-    full = bodies.inertia_mode is InertiaMode.FULL
-    return InertiaMode.FULL.words if full else KERNEL_INERTIA_WORDS
+    that the built-in scenes and the thesis frame keep their build, their body records and their cycles. ``scene``:
+    as few as the table's mode needs (1 where every dynamic body is isotropic, the thesis frame's cubes: a body
+    record two words shorter and on chip two words fewer per body)."""
+    mode = bodies.inertia_mode
+    if scene:
+        return mode.words
+    return InertiaMode.FULL.words if mode is InertiaMode.FULL else KERNEL_INERTIA_WORDS
 TRACE_WORDS = 16
 TRACE_TAIL_BITS = 64
 

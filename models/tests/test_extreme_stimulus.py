@@ -12,6 +12,7 @@ from models.kernel.extreme_stimulus import extreme_magnitudes
 from models.kernel.kernel_job import KernelJob
 from models.formats.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
+from models.setup.inertia import InertiaMode
 
 
 def pile_job(fmt: NumberFormat) -> KernelJob:
@@ -62,3 +63,14 @@ def test_impulses_in_the_records_start_at_extremes_too() -> None:
 def test_derived_tangents_are_refused() -> None:
     with pytest.raises(ValueError, match="before the tangents are derived"):
         extreme_magnitudes(pile_job(FP32).impulses_travelling().tangents_derived(), seed=1)
+
+
+def test_the_one_word_build_keeps_its_bodies_isotropic() -> None:
+    """A job on the 1-word build (the pile's cubes with ``with_inertia(True)``) draws one inverse-inertia value per
+    body, so the drawn table stays in the scalar mode its body record carries; the 3-word build's draws differ per
+    axis."""
+    scalar = extreme_magnitudes(pile_job(FP32).with_inertia(True), seed=3)
+    assert scalar.inertia_words == 1 and scalar.bodies.inertia_mode is InertiaMode.SCALAR
+    diagonal = extreme_magnitudes(pile_job(FP32), seed=3)
+    dyn = diagonal.bodies.dynamic
+    assert np.any(diagonal.bodies.inv_inertia[dyn, 0] != diagonal.bodies.inv_inertia[dyn, 1])

@@ -195,6 +195,8 @@ def test_body_record_per_inertia_mode(fmt: NumberFormat) -> None:
         sf.StreamLayout(fmt, inertia_words=4).body_in_beats
     # the kernel build for each table: the 6-word build for the full mode only, the default build otherwise
     assert [sf.kernel_inertia_words(t) for t in (scalar, base, full)] == [3, 3, 6]
+    # as few as each table's mode needs (make sim INERTIA=scene): the scalar table's 1-word build
+    assert [sf.kernel_inertia_words(t, scene=True) for t in (scalar, base, full)] == [1, 3, 6]
 
 
 

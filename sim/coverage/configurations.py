@@ -82,6 +82,7 @@ class Configuration:
         if self.soft_keep is not None:
             params = dataclasses.replace(params, soft_keep=self.soft_keep)
         job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard).with_adders(self.add_dsp)
+        job = job.with_inertia(self.inertia_words == 1)  # a scalar scene's 1-word job (INERTIA=scene)
         if job.friction_words != self.friction_words:
             if self.friction_words:
                 raise ValueError(f"{self.name}: the scene has no friction coefficient per manifold "
@@ -113,15 +114,17 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
     Configuration("window-fp16-l4", FP16, record_window=DEFAULT_DEPTH, lanes=4, body_bits=512,
                   readme="window kernel, fp16, 4 lanes (`FORMAT=fp16 RECORD_WINDOW=16384 LANES=4 BODY_BITS=512`)"),
     Configuration("window-fp32-records", FP32, record_window=8192, impulses_in_records=True, body_bits=256,
-                  add_dsp=True,
+                  add_dsp=True, inertia_words=1,
                   readme="window kernel, fp32, one lane, impulses in the records, body velocities in 8 banks, the "
-                         "adders in DSP48E2s: the fitting fp32 headline (`make sim SCENE=thesis SCHEDULE=sweep "
-                         "RECORD_WINDOW=8192 IMPULSE_STORE=records BODY_BITS=256 ADD_DSP=1`)"),
+                         "adders in DSP48E2s, the 1-word inverse inertia: the fitting fp32 headline (`make sim "
+                         "SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records BODY_BITS=256 "
+                         "ADD_DSP=1 INERTIA=scene`)"),
     Configuration("window-fp16-records-l2", FP16, record_window=8192, lanes=2, impulses_in_records=True,
-                  body_bits=256, add_dsp=True,
+                  body_bits=256, add_dsp=True, inertia_words=1,
                   readme="window kernel, fp16, two lanes, impulses in the records, body velocities in 16 banks, the "
-                         "adders in DSP48E2s: the fitting fp16 headline (`make sim SCENE=thesis SCHEDULE=sweep "
-                         "FORMAT=fp16 RECORD_WINDOW=8192 LANES=2 IMPULSE_STORE=records BODY_BITS=256 ADD_DSP=1`)"),
+                         "adders in DSP48E2s, the 1-word inverse inertia, delay lines from 129 deep in block RAM: the "
+                         "fitting fp16 headline (`make sim SCENE=thesis SCHEDULE=sweep FORMAT=fp16 RECORD_WINDOW=8192 "
+                         "LANES=2 IMPULSE_STORE=records BODY_BITS=256 ADD_DSP=1 INERTIA=scene`)"),
     Configuration("stream-fp32-records-tangents", FP32, impulses_in_records=True, tangents_on_chip=True,
                   readme="fp32 records design with the tangent basis derived on chip "
                          "(`make sim IMPULSE_STORE=records TANGENTS=chip`)"),

@@ -41,6 +41,10 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--add-dsp", type=int, choices=(0, 1), default=0,
                     help="1: every fp_add of the pipes in its DSP48E2 form (ADD_SHIFT_DSP build parameter: the same "
                          "results and cycles, the fit's DSP figures); 0: in LUTs and carry chains (the default)")
+    ap.add_argument("--inertia", choices=("build", "scene"), default="build",
+                    help="the body record's inverse-inertia words: the default build's (3, or 6 for the full matrix), "
+                         "or as few as the scene needs (1 where every dynamic body is isotropic: IINV_W = 1, two "
+                         "words fewer per body in the body stream and on chip)")
     ap.add_argument("--impulse-store", choices=("onchip", "records"), default="onchip",
                     help="accumulated impulses in the on-chip RAM, or travelling with the records through DDR "
                          "(IMPULSES_IN_RECORDS build parameter; the window kernel: each fetch of one pass kind, an "
@@ -57,6 +61,7 @@ def kernel_label(args: argparse.Namespace) -> str:
             + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else "")
             + ("" if getattr(args, "shared_datapath", 1) else "-two-pipes")
             + ("-dsp-adders" if getattr(args, "add_dsp", 0) else "")
+            + ("-scene-inertia" if getattr(args, "inertia", "build") == "scene" else "")
             + ("-xls" if getattr(args, "datapath", "rtl") == "xls" else ""))
 
 
@@ -72,8 +77,10 @@ def datapath_options(args: argparse.Namespace) -> dict[str, bool]:
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
     """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``, the impulses in
     the records with ``--impulse-store records``, the tangent basis derived on chip with ``--tangents chip``, a
-    contact and a friction pipe per lane with ``--shared-datapath 0``, the DSP48E2 adders with ``--add-dsp 1``."""
+    contact and a friction pipe per lane with ``--shared-datapath 0``, the DSP48E2 adders with ``--add-dsp 1``, the
+    scene's inverse-inertia words with ``--inertia scene``."""
     job = job.with_datapath(bool(getattr(args, "shared_datapath", 1))).with_adders(bool(getattr(args, "add_dsp", 0)))
+    job = job.with_inertia(getattr(args, "inertia", "build") == "scene")
     if getattr(args, "tangents", "host") == "chip":
         if args.record_window:
             raise ValueError("--tangents chip is a configuration of the streaming kernel (no --record-window)")

@@ -44,7 +44,7 @@ from typing import Any, Optional, Union
 from models.kernel.kernel_job import KernelJob
 from models.timing import platforms
 from sim.fit import resource_model as rm
-from sim.fit.timing_estimate import PIPE_UNITS
+from sim.fit.timing_estimate import pipe_unit
 
 
 @dataclass(frozen=True)
@@ -73,12 +73,13 @@ def logic_lut_band(data: Optional[dict[str, Any]] = None) -> BandFactor:
 
 def whole_pipe_gap(cfg: rm.KernelConfig, data: dict[str, Any]) -> rm.Resources:
     """Yosys of each whole pipe less the per-operator sum of the same pipe (delay lines in LUT RAM, as the whole run
-    synthesizes them), times the pipes of ``cfg``; pipes without a whole run count nothing."""
+    synthesizes them), times the pipes of ``cfg``; pipes without a whole run (their own or a stand-in's,
+    ``pipe_unit``) count nothing."""
     gap = rm.Resources()
     units = data.get("units", {}).get(cfg.fmt.name, {})
     plain = rm.KernelConfig(cfg.fmt, 0, 0)
     for module, count in rm.lane_pipes(cfg) + [("pgs_integrate_pipe", 1)]:
-        whole = units.get(PIPE_UNITS.get(module, ""))
+        whole = units.get(pipe_unit(module) or "")
         if whole is None:
             continue
         parts, _ = rm.pipe_resources(module, plain, data)

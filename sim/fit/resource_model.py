@@ -64,7 +64,8 @@ from models.kernel.kernel_job import KernelJob
 from models.sizing.mixed_layout import Converters
 from models.formats.number_format import KERNEL_FORMATS, NumberFormat
 from models.timing.kernel_shape import IMPULSE_FIFO_DEPTH
-from models.kernel.stream_format import CONTACT_WORDS, FRICTION_WORDS, BODY_IN_WORDS, IMPULSE_OUT_WORDS, WINDOW_WORDS
+from models.kernel.stream_format import (CONTACT_WORDS, FRICTION_WORDS, BODY_IN_WORDS, IMPULSE_OUT_WORDS,
+                                         KERNEL_INERTIA_WORDS, WINDOW_WORDS, body_in_word_count)
 from rtl.gen.dataflow import BOOL, OP_SIGNATURES
 from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS, SHARED_GRAPHS, shared_module
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
@@ -329,7 +330,8 @@ class MemoryArray:
         return Resources(bram36=self.copies * bram36_for(self.depth, self.width, self.true_dual_port))
 
 
-BODY_CONST_WORDS = {"full": BODY_IN_WORDS - 6, "solve": 4}  # pos, q, 1/m, I^-1 | 1/m, I^-1
+# the constant words of a body beside its inverse-inertia words (IINV_W): pos, q, 1/m | 1/m (the poses off chip)
+BODY_CONST_WORDS = {"full": BODY_IN_WORDS - 6 - KERNEL_INERTIA_WORDS, "solve": 1}
 BODY_VEL_WORDS = 6
 IMPULSE_WORDS = ob.IMPULSE_WORDS
 
@@ -357,8 +359,10 @@ class KernelConfig:
     body_bits: int = DEFAULT_BODY_BITS  # the body streams' beat (BODY_IN_W = BODY_OUT_W): the control's figure
     shared_datapath: bool = True  # SHARED_DATAPATH: one datapath per lane for both passes, else two pipes per lane
     adders: str = "fabric"  # "fabric" | "dsp": the figure of every fp_add instance (ADDER_FORMS)
+    inertia_words: int = KERNEL_INERTIA_WORDS  # IINV_W: inverse-inertia words per body (1, 3 or 6)
 
     def __post_init__(self) -> None:
+        body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
         if self.adders not in ADDER_FORMS:
             raise ValueError(f"adders {self.adders!r}: expected {' | '.join(ADDER_FORMS)}")
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
@@ -388,6 +392,8 @@ class KernelConfig:
             levers.append("soft contact pipe")
         if self.body_bits != DEFAULT_BODY_BITS:
             levers.append(f"{self.body_bits}-bit body streams")
+        if self.inertia_words != KERNEL_INERTIA_WORDS:
+            levers.append(f"{self.inertia_words}-word inverse inertia")
         if self.delay_block_min_depth:
             levers.append(f"delay lines from {self.delay_block_min_depth} deep in block RAM")
         if self.record_bits:
@@ -398,11 +404,17 @@ class KernelConfig:
                 + ", ".join(levers))
 
 
+def body_const_words(cfg: KernelConfig) -> int:
+    """The words per body that stay constant through a step on chip: its ``body_words`` and inverse inertia."""
+    return BODY_CONST_WORDS[cfg.body_words] + cfg.inertia_words
+
+
 def memories(cfg: KernelConfig) -> list[MemoryArray]:
     """The configuration's on-chip arrays with the copies their ports need."""
     w, ports, nb = cfg.fmt.width, 2 * cfg.lanes, cfg.max_bodies
-    const_w = BODY_CONST_WORDS[cfg.body_words] * w
-    out = [MemoryArray(f"body constant words ({BODY_CONST_WORDS[cfg.body_words]}), {ports} read ports: "
+    const_words = body_const_words(cfg)
+    const_w = const_words * w
+    out = [MemoryArray(f"body constant words ({const_words}), {ports} read ports: "
                        f"{math.ceil(ports / 2)} true dual-port copies", nb, const_w, math.ceil(ports / 2), True)]
     if cfg.body_ports == "lvt":
         out.append(MemoryArray(f"body velocities (v, w), {ports}W{ports}R: {ports * ports} banks (live-value table)",
@@ -591,7 +603,8 @@ def lane_pipes(cfg: KernelConfig) -> list[tuple[str, int]]:
     """The datapath modules of the configuration's lanes and how many of each: the shared datapath of its options per
     lane, or a contact and a friction pipe per lane."""
     if cfg.shared_datapath:
-        return [(shared_module(soft=cfg.soft_contact, tangents_on_chip=cfg.tangents_on_chip), cfg.lanes)]
+        return [(shared_module(cfg.inertia_words, soft=cfg.soft_contact, tangents_on_chip=cfg.tangents_on_chip),
+                 cfg.lanes)]
     friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
     contact = "pgs_contact_pipe_soft" if cfg.soft_contact else "pgs_contact_pipe"
     return [(contact, cfg.lanes), (friction, cfg.lanes)]
@@ -749,7 +762,8 @@ def config_for_job(job: KernelJob, body_bits: int = DEFAULT_BODY_BITS) -> Kernel
                         body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
                         tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None,
                         delay_block_min_depth=job.delay_block_min_depth, body_bits=body_bits,
-                        shared_datapath=job.shared_datapath, adders="dsp" if job.add_dsp else "fabric")
+                        shared_datapath=job.shared_datapath, adders="dsp" if job.add_dsp else "fabric",
+                        inertia_words=job.inertia_words)
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,

@@ -51,6 +51,10 @@ SHARED_PIPE = shared_module()  # a lane's shared datapath of the default options
 # the pipes ``make resources`` synthesizes whole (module -> unit name): their netlists' depth, their Yosys figures
 PIPE_UNITS = {"pgs_contact_pipe": "contact", "pgs_friction_pipe": "friction", "pgs_integrate_pipe": "integrate",
               SHARED_PIPE: "shared"}
+# a shared datapath without a Yosys run of its own, timed and banded with the default one's run (module -> why):
+# the 1-word inverse inertia's has the same operators, multiplexers and stages, and four fewer delay lines
+STAND_IN_PIPES = {shared_module(1): f"{shared_module(1)} as {SHARED_PIPE}'s Yosys run (the same operators, "
+                                    "multiplexers and stages; four fewer delay lines)"}
 DSP_ADDER_UNIT = rm.ADDER_FORMS["dsp"]  # the operator unit of fp_add's DSP48E2 form (its own Yosys run)
 BLOCK_RAM_BOXES = {"pgs_impulse_ram", "pgs_body_ram"}
 
@@ -176,12 +180,18 @@ class NoTiming:
     reason: str
 
 
+def pipe_unit(module: str) -> Optional[str]:
+    """The Yosys unit whose run stands for ``module`` (its own, or :data:`STAND_IN_PIPES`'s); None: no run."""
+    return PIPE_UNITS.get(module) or (PIPE_UNITS[SHARED_PIPE] if module in STAND_IN_PIPES else None)
+
+
 def _units(cfg: rm.KernelConfig) -> tuple[dict[str, str], list[str]]:
     """The units a configuration builds (module -> unit name) and the parts without a unit of their own."""
     units, missing = {}, []
     for module, _ in rm.lane_pipes(cfg) + [("pgs_integrate_pipe", 1)]:
-        if module in PIPE_UNITS:
-            units[module] = PIPE_UNITS[module]
+        unit = pipe_unit(module)
+        if unit is not None:
+            units[module] = unit
         else:
             missing.append(f"{module} (no Yosys run of it)")
     units["control"] = rm.WINDOW_CONTROL_UNIT if cfg.window else rm.control_unit(cfg.body_bits)
@@ -225,6 +235,7 @@ def timing(cfg: rm.KernelConfig, platform: platforms.Platform, data: Optional[di
     paths = [_path(u, p) for u, a in analyses.items() for p in a["worst"][:1]]
     paths += [_path(u, p) for u, a in analyses.items() for m, p in a["by_module"].items()]
     notes: set[str] = {n for a in analyses.values() for n in a.get("notes", [])}
+    notes.update(STAND_IN_PIPES[m] for m, _ in rm.lane_pipes(cfg) if m in STAND_IN_PIPES)
     if cfg.adders == "dsp":
         notes.add(f"the pipes' paths with the fabric adders (their Yosys runs), beside them {DSP_ADDER_UNIT}'s own "
                   "(every fp_add of a build with ADD_SHIFT_DSP = 1)")

@@ -356,3 +356,26 @@ def test_a_job_built_with_the_dsp_adders_is_judged_with_their_figure() -> None:
     assert kb.parameters["ADD_SHIFT_DSP"] == 1 and "ADD_SHIFT_DSP" not in kb0.parameters and kb.name != kb0.name
     with pytest.raises(ValueError, match="DATAPATH=xls does not cover ADD_DSP=1"):
         KernelBuild.for_job(dsp_job.with_datapath(False), get_preset("zcu102"), datapath="xls")
+
+
+def test_the_scene_inertia_keeps_two_words_per_body_fewer_on_chip() -> None:
+    """``inertia_words`` (IINV_W): the body constants are pos, q, 1/m and the inverse inertia's words, so the 1-word
+    build of an isotropic scene (make sim INERTIA=scene) keeps 9 words per body, 2 fewer than the default build's 11
+    (the thesis frame in fp32: 304 BRAM36 in place of 380), on the 1-word shared datapath; a job built so is judged
+    with it."""
+    from models.tests.test_body_banks import pile_job
+
+    cfg = rm.KernelConfig(FP32, *THESIS, window=8192, impulses_resident=False, body_ports="banked", body_banks=8)
+    scalar = dataclasses.replace(cfg, inertia_words=1)
+    const = {c.inertia_words: rm.memories(c)[0] for c in (cfg, scalar)}
+    assert (rm.body_const_words(cfg), rm.body_const_words(scalar)) == (11, 9)
+    assert (const[3].width, const[1].width) == (11 * 32, 9 * 32)
+    assert (const[3].resources().bram36, const[1].resources().bram36) == (380, 304)
+    assert rm.lane_pipes(scalar) == [("pgs_shared_pipe_scalar", 1)] and "1-word inverse inertia" in scalar.describe()
+    assert rm.estimate(cfg, ZCU102).total.bram36 - rm.estimate(scalar, ZCU102).total.bram36 == 76
+    assert rm.body_const_words(dataclasses.replace(scalar, body_words="solve")) == 2
+    with pytest.raises(ValueError, match="1, 3 or 6"):
+        rm.KernelConfig(FP32, 1, 1, inertia_words=2)
+    job = pile_job()
+    assert rm.config_for_job(job).inertia_words == 3 and rm.config_for_job(job.with_inertia(True)).inertia_words == 1
+

@@ -60,3 +60,18 @@ def test_mode_model_knows_the_tangents_derived_on_chip(tmp_path: Path) -> None:
     fit = report["fit on the platform (resource estimate of this configuration)"]
     assert "tangent basis derived on chip" in fit["configuration"]
     assert next(tmp_path.glob("*-impulses-in-records-tangents-on-chip/report.json"))
+
+
+def test_mode_model_knows_the_scene_inertia(tmp_path: Path) -> None:
+    """`INERTIA=scene` on the stack's cubes (isotropic: the scalar mode) reaches the cycle model (the 15-word body
+    record: 4 beats of 128 bits in place of 5, a shorter LOAD) and the resource model (the 1-word build), the run
+    named for it."""
+    base = _run(tmp_path / "build", "--mode", "model")
+    scene = _run(tmp_path / "scene", "--mode", "model", "--inertia", "scene")
+    assert "1-word inverse inertia" in scene["fit on the platform (resource estimate of this configuration)"][
+        "configuration"]
+    nb = int(str(scene["scene"]["bodies"]).replace(",", ""))  # one beat fewer per body-in record
+    solve = "model: SOLVE starts at cycle"
+    assert base[SECTION][solve] - scene[SECTION][solve] == nb
+    assert next((tmp_path / "scene").glob("*-scene-inertia/report.json"))
+

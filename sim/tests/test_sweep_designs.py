@@ -133,6 +133,19 @@ def test_window_designs_and_the_schedule(frame_file: Path) -> None:
         sim_sweep.parse_args(["--frame", str(frame_file), "--schedule", "spiral"])
 
 
+def test_the_adders_and_the_inverse_inertia_reach_the_points(frame_file: Path) -> None:
+    """--add-dsp and --inertia (make sweep ADD_DSP, INERTIA) reach every point, its key, its command and the sweep's
+    name, and the job each point runs (the pile's cubes: the 1-word build); the defaults keep the keys they had."""
+    base, _, _ = _plan(frame_file, "--formats", "fp32", "--iters", "1")
+    points, name, _ = _plan(frame_file, "--formats", "fp32", "--iters", "1", "--add-dsp", "1", "--inertia", "scene")
+    assert (points[0].add_dsp, points[0].inertia) == (1, "scene") and name.endswith("-dsp-adders-scene-inertia-model")
+    assert "--add-dsp 1 --inertia scene" in points[0].command and points[0].key != base[0].key
+    assert base[0].key == dataclasses.replace(base[0], add_dsp=0, inertia="build").key
+    job = sim_sweep.kernel_job(KernelJob.from_frame(scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"]),
+                                                    FP16, SolverParams(1)), points[0])
+    assert job.add_dsp and job.inertia_words == 1
+
+
 def _row(fmt: str, design: str, iterations: int, x: float, dv: float, fits: bool) -> dict[str, Any]:
     return {"format": fmt, "design": design, "iterations": iterations, "cycles_per_manifold_pass": x,
             "cycles": int(x * 100 * 2 * iterations), "manifolds": 100, "max_dv_vs_exact": dv,

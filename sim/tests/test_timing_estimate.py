@@ -87,6 +87,20 @@ def test_shared_datapath_takes_the_place_of_both_pipes() -> None:
                                                                    "adds it)"]
 
 
+def test_the_scalar_shared_datapath_is_timed_with_the_default_ones_run() -> None:
+    """The 1-word inverse inertia's shared datapath (the same operators, multiplexers and stages) has no Yosys run of
+    its own: the default datapath's run stands for it, and the verdict says so; another variant stays missing."""
+    shared = dataclasses.replace(CFG, shared_datapath=True)
+    d = data(unit(1.0))
+    d["units"]["fp32"]["shared"] = {"0": unit(2.6, 9)}
+    v = te.timing(dataclasses.replace(shared, inertia_words=1), ZCU102, d)
+    assert isinstance(v, te.TimingVerdict) and v.worst.where == "shared" and not v.missing
+    assert any("pgs_shared_pipe_scalar as pgs_shared_pipe's Yosys run" in n for n in v.notes)
+    assert te.pipe_unit("pgs_shared_pipe_scalar") == "shared" and te.pipe_unit("pgs_shared_pipe_full") is None
+    full = te.timing(dataclasses.replace(shared, inertia_words=6), ZCU102, d)
+    assert isinstance(full, te.TimingVerdict) and full.missing == ["pgs_shared_pipe_full (no Yosys run of it)"]
+
+
 def test_ring_heads_read_through_the_lut_ram_tree() -> None:
     cfg = rm.KernelConfig(FP32, 100, 100, window=8192, impulses_resident=False, body_ports="banked")
     control = unit(1.0, 2, boxes={"u_seq.u_window.u_heads": "pgs_ring_ram", "u_seq.u_window.u_records": "pgs_ring_ram"},
