@@ -202,8 +202,8 @@ def headline_rows(step: Step) -> list[Row]:
     preset = get_preset(DMA)
     rows = []
     for name, fmt, lanes in HEADLINE_DESIGNS:
-        job = _job(step, fmt, "sweep").impulses_travelling().windowed(RING, lanes=lanes).with_adders(True)
-        job = job.with_inertia(True)
+        job = (_job(step, fmt, "sweep").impulses_travelling().windowed(RING, lanes=lanes).with_adders(True)
+               .with_inertia(True))
         cycles = cycle_model.predict_job(job, preset, body_bits=BODY_BITS).cycles
         verdict = kernel_fit(job, DMA, BODY_BITS)
         error, note = golden_error(step, job)

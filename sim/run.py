@@ -441,8 +441,7 @@ MAKE_SIM_OPTIONS = {"SCENE": "--scene", "SCENE_ARGS": "--scene-args", "ITERS": "
                     "RECORD_WINDOW": "--record-window", "FETCH_PASSES": "--fetch-passes", "LANES": "--lanes",
                     "BODY_BITS": "--body-bits", "DRIVER": "--driver", "IMPULSE_STORE": "--impulse-store",
                     "TANGENTS": "--tangents", "COMPILE": "--compile-profile", "SHARED_DATAPATH": "--shared-datapath",
-                    "DATAPATH": "--datapath", "ADD_DSP": "--add-dsp",
-                    "INERTIA": "--inertia"}
+                    "DATAPATH": "--datapath", "ADD_DSP": "--add-dsp", "INERTIA": "--inertia"}
 
 
 def make_sim_argv(command: str) -> list[str]:

@@ -164,6 +164,10 @@ def _int_list(text: str, name: str) -> list[int]:
 ALONE_DIR = "build/sweep/alone"
 
 
+# the fields a point's key leaves out at these values: the keys of sweeps made before each field existed
+KEY_DEFAULTS: dict[str, Any] = {"impulse_store": "onchip", "schedule": "hazard", "add_dsp": 0, "inertia": "build"}
+
+
 @dataclass(frozen=True)
 class SweepPoint:
     """One point of the sweep (a format, an iteration count, rtl or the cycle model), run by ``sim.parallel.executor``:
@@ -199,11 +203,7 @@ class SweepPoint:
     @property
     def key(self) -> str:
         desc = {k: v for k, v in dataclasses.asdict(self).items() if k not in ("exact", "ladder", "rank")}
-        if self.impulse_store == "onchip":  # the key of a sweep of one design is what it was before designs
-            desc.pop("impulse_store")
-        if self.schedule == "hazard":  # and of the hazard order what it was before schedules
-            desc.pop("schedule")
-        for name, default in (("add_dsp", 0), ("inertia", "build")):  # the defaults keep the keys they had
+        for name, default in KEY_DEFAULTS.items():  # a field at its default keeps the key it had before the field
             if desc[name] == default:
                 desc.pop(name)
         digest = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:12]
