@@ -66,3 +66,29 @@ def test_pruning_refuses_a_parent_that_does_not_pass_a_parameter(tmp_path: Path)
         "module pgs_kernel #(parameter int EXP_BITS = 8, parameter int MAN_BITS = 23) ();\n  generate if (1) begin\n"
         "  pgs_sequencer #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_seq ();\n  end endgenerate\nendmodule\n")
     assert forwarded_params(tmp_path / "pgs_kernel.sv", "pgs_sequencer") == set()
+
+
+def test_every_option_of_a_generated_pipe_meets_every_parameter_set() -> None:
+    """A generated pipe variant not covered by another of its family is linted with every parameter set it takes;
+    the others with their defaults; the covering variants hold every option of their family (diagonal, scalar and
+    full inverse inertia among them: the options a name leaves out)."""
+    from sim.lint import PIPE_FAMILIES, covering_pipes, param_sets, pipe_options
+
+    _, modules = rtl_files()
+    pipes = {m.stem: m for m in modules if pipe_options(m.stem) is not None}
+    cover = covering_pipes()
+    assert cover < set(pipes) and {pipe_options(m)[0] for m in pipes} == set(PIPE_FAMILIES)
+    for name, path in pipes.items():
+        labels = [r.label for r in runs_for(path)]
+        assert labels[0] == "default"
+        if name in cover:
+            assert len(labels) > 1 and set(labels[1:]) <= set(param_sets())
+        else:
+            assert labels == ["default"]
+    for family in PIPE_FAMILIES:
+        every = {o for m in pipes if pipe_options(m)[0] == family for o in pipe_options(m)[1]}
+        covered = {o for m in cover if pipe_options(m)[0] == family for o in pipe_options(m)[1]}
+        assert covered == every, family
+        modes = {frozenset(pipe_options(m)[1]) & {"scalar", "full"} for m in cover if pipe_options(m)[0] == family}
+        if family in ("pgs_shared_pipe", "pgs_contact_pipe"):
+            assert modes == {frozenset(), frozenset({"scalar"}), frozenset({"full"})}, family  # every inertia mode

@@ -12,6 +12,11 @@ on chip; one with ``SOFT_CONTACT`` also with the soft contact pipe; one with ``S
 lane; one with ``ADD_SHIFT_DSP`` also with the adders' DSP48E2 form. A module that its parent instantiates unconditionally with every one of its parameters passed through
 (``ELABORATED_BY_PARENT``: the sequencer inside the kernel top, the sequencer's phase modules inside it, a lane's datapath
 inside the lane) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set.
+The generated pipes (``rtl/generated/``: one emitter's output per option set of a family, ``pgs_shared_pipe``,
+``pgs_contact_pipe``, ...) are each linted with their defaults; the other parameter sets go to the *covering* variants
+only, those whose options no other variant of the family holds all of (``pgs_shared_pipe_full_mu`` covers
+``pgs_shared_pipe``, ``_full`` and ``_mu``), so that every option of a family meets every parameter set in at least
+one run (:func:`covering_pipes`).
 The XLS datapath (``rtl/generated/xls/``, ``rtl/gen/xls_flow.py``) is linted too: each of its pipe modules as a top in
 every format XLS built it for, and the kernel with those pipes (two pipes per lane) in binary32, under
 ``rtl/xls/xls_lint.vlt`` (the waivers of XLS's own Verilog: the bits of its internal values it does not read). Any
@@ -34,6 +39,7 @@ from pathlib import Path
 
 from models.formats.number_format import FP16, KERNEL_FORMATS, NumberFormat
 from rtl.gen.file_list import rtl_files
+from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS, SHARED_GRAPHS
 from rtl.gen.xls_flow import LINT_WAIVERS, XLS_DIR, XLS_FORMATS, XLS_PIPES, wrapper_path
 from sim.compile.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
 
@@ -147,6 +153,25 @@ ELABORATED_BY_PARENT: dict[str, str] = {
     "pgs_lane_datapath": "pgs_seq_lane",
 }
 
+# the generated pipes' families: a variant's name is its family's followed by its options (``_full_mu``: full, mu)
+PIPE_FAMILIES = ("pgs_shared_pipe", "pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe")
+
+
+def pipe_options(module: str) -> tuple[str, frozenset[str]] | None:
+    """A generated pipe's family and options (None: not a generated pipe)."""
+    if module not in {*GRAPHS, *MODE_GRAPHS, *SHARED_GRAPHS}:
+        return None
+    family = next(f for f in PIPE_FAMILIES if module == f or module.startswith(f + "_"))
+    return family, frozenset(module[len(family):].split("_")) - {""}
+
+
+def covering_pipes() -> set[str]:
+    """The generated pipes whose options are not a strict subset of another variant's of their family."""
+    variants = {m: pipe_options(m) for m in {*GRAPHS, *MODE_GRAPHS, *SHARED_GRAPHS}}
+    return {m for m, (fam, opts) in variants.items()
+            if not any(f == fam and opts < o for f, o in variants.values())}
+
+
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
 
 
@@ -194,6 +219,8 @@ def runs_for(module_file: Path) -> list[LintRun]:
         if missing:
             raise ValueError(f"{parent.name} does not pass {', '.join(sorted(missing))} through to {top}: "
                              f"lint {top} with every parameter set (remove it from ELABORATED_BY_PARENT)")
+        return out
+    if pipe_options(top) is not None and top not in covering_pipes():
         return out
     for label, pset in param_sets().items():
         if set(pset) <= params:
