@@ -33,6 +33,8 @@ WORLD_CATALOGUE: tuple[WorldBadInputCase, ...] = (
     WorldBadInputCase("nan_pose", "NaN in a body's position", "NaN or Inf in its pose"),
     WorldBadInputCase("bad_mesh", "a URDF whose collision mesh pybullet cannot load", "pybullet refused a call"),
     WorldBadInputCase("no_collision_shape", "a dynamic body without a collision shape", "no collision shape"),
+    WorldBadInputCase("nan_mesh", "a URDF whose mesh has nan vertices (pybullet_data's random_urdfs/168)",
+                      "non-finite vertex"),
     WorldBadInputCase("no_dynamic_body", "a world of static bodies only", "no dynamic body"),
     WorldBadInputCase("no_contact", "a world whose captured step has no contact", "has no contact"),
 )

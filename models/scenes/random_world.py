@@ -10,7 +10,8 @@ patch of ground:
 * **rows** of jenga blocks side by side on the ground, one or two layers (the upper crosswise);
 * **stacks** of ``cube_small.urdf`` cubes, each turned about the vertical;
 * **heaps** of ducks (``duck_vhacd.urdf``), lego bricks, small spheres and cubes, teddies (``teddy_vhacd.urdf``) and
-  ``random_urdfs`` objects, dropped in jittered layers, every one turned at random.
+  ``random_urdfs`` objects, dropped in jittered layers, every one turned at random (an object whose mesh holds
+  non-finite vertices, pybullet_data's 168, is drawn again).
 
 Each dynamic body gets a lateral friction drawn in [0.3, 1.0] (per-pair friction, Bullet 2's product) and no
 restitution. The world is captured at ``CAPTURE_STEP`` (the bodies have landed on the ground and on each other).
@@ -21,11 +22,13 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from models.scenes.specs import int_param
+from models.scenes.user_world import nonfinite_obj_vertices
 
 CAPTURE_STEP = 12
 MIN_BODIES, MAX_BODIES = 50, 500
@@ -92,8 +95,9 @@ def describe(seed: int, bodies: int = 0) -> str:
 class _Frame:
     """Poses given z-up, turned into the world's up axis; the world AABBs of the bodies placed so far."""
 
-    def __init__(self, pb: Any, up: str) -> None:
+    def __init__(self, pb: Any, up: str, data_path: str) -> None:
         self.pb = pb
+        self.data_path = data_path
         self.turn = (-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)) if up == "y" else (0.0, 0.0, 0.0, 1.0)
         self.axis = 1 if up == "y" else 2  # the world's up axis
         self.boxes: list[np.ndarray] = []  # (2, 3) world AABB of each dynamic body placed
@@ -126,7 +130,7 @@ def build(pb: Any, data_path: str, seed: int = 0, bodies: int = 0) -> None:
     bodies = 0 if bodies == 0 else int_param("bodies", bodies, MIN_BODIES, MAX_BODIES)
     p = plan(seed, bodies)
     rng = np.random.default_rng([seed, 1])
-    frame = _Frame(pb, p.up)
+    frame = _Frame(pb, p.up, data_path)
     if p.up == "z":
         pb.setGravity(0.0, 0.0, -9.8)
     _ground(pb, frame, p)
@@ -160,6 +164,13 @@ def _place(pb: Any, frame: _Frame, rng: np.random.Generator, urdf: str, pos: lis
     pb.changeDynamics(uid, -1, lateralFriction=float(rng.uniform(0.3, 1.0)), restitution=0.0,
                       activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING)
     return uid
+
+
+def _broken_random_urdf(data_path: str, n: int) -> bool:
+    """``random_urdfs`` object n's mesh holds non-finite vertices (``nonfinite_obj_vertices``: pybullet_data 4.x's
+    168): never placed."""
+    mesh = Path(data_path) / "random_urdfs" / f"{n:03d}" / f"{n:03d}.obj"
+    return mesh.is_file() and nonfinite_obj_vertices(mesh) > 0
 
 
 def _about_z(angle: float) -> tuple[float, float, float, float]:
@@ -211,6 +222,8 @@ def _heap(pb: Any, frame: _Frame, rng: np.random.Generator, centre: np.ndarray, 
         name, scale = HEAP_ASSETS[int(rng.integers(len(HEAP_ASSETS)))]
         if name == "random_urdfs":
             n = int(rng.integers(RANDOM_URDFS))
+            while _broken_random_urdf(frame.data_path, n):  # drawn again: the other worlds stay as they were
+                n = int(rng.integers(RANDOM_URDFS))
             name = f"random_urdfs/{n:03d}/{n:03d}.urdf"
         x, y = (i - 1) * pitch + float(rng.uniform(-0.015, 0.015)), (j - 1) * pitch + float(rng.uniform(-0.015, 0.015))
         q = rng.normal(size=4)

@@ -265,6 +265,7 @@ BAD_WORLDS: dict[str, Callable[[Path], tuple[str, dict]]] = {
     "nan_pose": _world(f"pb.createMultiBody(1, {_SPHERE}, basePosition=[float('nan'), 0.1, 0])\n"),
     "bad_mesh": _bad_mesh,
     "no_collision_shape": _world("pb.createMultiBody(1, -1, basePosition=[0, 0.1, 0])\n"),
+    "nan_mesh": _world("pb.loadURDF('random_urdfs/168/168.urdf', [0, 0.1, 0])\n"),
     "no_dynamic_body": _world(f"pb.createMultiBody(0, {_SPHERE}, basePosition=[0, 0.1, 0])\n"),
     "no_contact": _world(f"pb.createMultiBody(1, {_SPHERE}, basePosition=[0, 3, 0])\n", head="CAPTURE_STEP = 1\n"),
 }
