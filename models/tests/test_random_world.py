@@ -109,10 +109,13 @@ def test_exact_reference_on_random_worlds(tmp_path: Path) -> None:
                           "models/tests/test_random_world.py -k random_worlds)" if failures else "")
 
 
-def test_a_near_singular_contact_component_is_certified(tmp_path: Path) -> None:
-    """Seed 114854854's world (CI's seeds drew it): a contact component of 418 rows and rank 176, with eigenvalues
-    of 2.6e-7 and 1.7e-6 beside 1.9e3. Gauss-Seidel, Newton and pivoting all stopped at 6.0e-10 m/s there, and one
-    contact pass moved 1.0e-8. The proximal point (models/exact/box_lcp.py) certifies it."""
-    ok, details = _certified(114854854, tmp_path)
+@pytest.mark.parametrize("seed, method", [(114854854, 4), (548183768, 5)])
+def test_a_near_singular_contact_component_is_certified(seed: int, method: int, tmp_path: Path) -> None:
+    """Two worlds that CI's seeds drew, each with a contact component of near-null modes where Gauss-Seidel, Newton
+    and pivoting stop short (models/exact/box_lcp.py). Seed 114854854: 418 rows of rank 176, eigenvalues 2.6e-7 and
+    1.7e-6 beside 1.9e3, stopped at 6.0e-10 m/s (one contact pass moved 1.0e-8); the proximal point certifies it.
+    Seed 548183768: 502 rows of rank 195, stopped at 2.8e-8 m/s (the proximal point's Newton too; one pass moved
+    2.2e-7); MPRGP certifies it."""
+    ok, details = _certified(seed, tmp_path)
     assert ok
-    assert details[f"{SHARPEN_KEY} by {BOX_METHODS[4]}"] == 1
+    assert details[f"{SHARPEN_KEY} by {BOX_METHODS[method]}"] == 1

@@ -31,7 +31,8 @@ from models.scenes.specs import SCENES
 RESIDUAL_KEYS = ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
                  "friction phase: spin |n.w| max (rad/s)")
 SHORT = {METHODS[0]: "Gauss-Seidel", METHODS[1]: "Newton", METHODS[2]: "pivoting (warm)",
-         METHODS[3]: "pivoting (cold)", METHODS[4]: "proximal point"}
+         METHODS[3]: "pivoting (cold)", METHODS[4]: "proximal point",
+         METHODS[5]: "MPRGP"}
 
 
 @dataclass
