@@ -47,6 +47,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from models.exact.box_lemke import PIVOT_ROWS_LIMIT, box_lemke, component_rows
+from models.exact.mprgp import mprgp
 
 TARGET = 1e-13  # the iterations stop at this natural residual (m/s)
 NEWTON_MAX_ITERATIONS = 60
@@ -226,8 +227,6 @@ def mprgp_point(prob: BoxProblem, x: np.ndarray, target: float = TARGET,
                 deadline: float = np.inf) -> tuple[np.ndarray, float, int]:
     """MPRGP from ``x`` on a symmetric problem (module docstring, step 5), sharpened by Newton steps: (the point,
     its largest residual, Newton iterations)."""
-    from models.exact.mprgp import mprgp
-
     A = prob.A
     res = mprgp(lambda v: A @ v, A.diagonal(), -prob.b, prob.lo, prob.hi, x, MPRGP_TOLERANCE, MPRGP_ITERATIONS,
                 min(MPRGP_SECONDS, max(deadline - time.monotonic(), 0.0)))
