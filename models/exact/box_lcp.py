@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -174,24 +175,21 @@ def _solve_component(prob: BoxProblem, x: np.ndarray, res: float, accept: float,
                          + (f" ({piv.reason})" if piv.reason else ""))
             if time.monotonic() > deadline:
                 break
-    for rho in PROXIMAL_REGULARIZATIONS:
+    # the last resorts, in turn (method index, what the failure line calls it, the attempt)
+    attempts = [(4, f"proximal point (rho {rho:g})", partial(proximal_point, prob, x, rho, target, deadline))
+                for rho in PROXIMAL_REGULARIZATIONS]
+    if _symmetric(prob.A):
+        attempts.append((5, "MPRGP", partial(mprgp_point, prob, x, target, deadline)))
+    for method, label, attempt in attempts:
         if time.monotonic() > deadline:
             break
-        y, r, its = proximal_point(prob, x, rho, target, deadline)
+        y, r, its = attempt()
         out.newton += its
         if r <= accept:
-            return y, r, 4
+            return y, r, method
         if r < best_res:
             best, best_res = y, r
-        tried.append(f"proximal point (rho {rho:g}) {r:.1e} m/s")
-    if _symmetric(prob.A) and time.monotonic() < deadline:
-        y, r, its = mprgp_point(prob, x, target, deadline)
-        out.newton += its
-        if r <= accept:
-            return y, r, 5
-        if r < best_res:
-            best, best_res = y, r
-        tried.append(f"MPRGP {r:.1e} m/s")
+        tried.append(f"{label} {r:.1e} m/s")
     if time.monotonic() > deadline:
         tried.append("time budget spent")
     out.failures.append(f"a component of {n:,} rows: Gauss-Seidel {res:.1e} m/s after {out.sweeps} sweeps, "
