@@ -57,16 +57,20 @@ module pgs_hazard_cam #(
         end
     end
 
+    // each candidate body against every live body in flight; its dynamic flag gates the match at the end (the flag
+    // comes from the issue checks, later in the cycle than the body indices)
+    logic [NB-1:0] match;
     always_comb begin
-        hazard = 1'b0;
+        match = '0;
         for (int i = 0; i < DEPTH; i++) begin
             for (int e = 0; e < NB; e++) begin
                 for (int c = 0; c < NB; c++) begin
-                    if (live[i][e] && cand_dyn[c] && ent[i][e*IDX_W +: IDX_W] == cand[c*IDX_W +: IDX_W]) hazard = 1'b1;
+                    if (live[i][e] && ent[i][e*IDX_W +: IDX_W] == cand[c*IDX_W +: IDX_W]) match[c] = 1'b1;
                 end
             end
         end
     end
+    assign hazard = (match & cand_dyn) != '0;
     assign full  = count == (PTR_W+1)'(DEPTH);
     assign empty = count == '0;
 endmodule

@@ -41,6 +41,8 @@ module pgs_seq_records #(
     input  wire logic                        clk,
     input  wire logic                        rst,
     input  wire logic                        init,        // the sequencer idle: the next step starts afresh
+    input  wire logic                        first_start, // window kernel: the step started next has passes and
+                                                          // records (from the run's arguments: pgs_window)
     input  wire logic                        fetch_en,    // LOAD and SOLVE: records are assembled
     input  wire logic [31:0]                 nb,
     input  wire logic [31:0]                 nm,          // slots per pass (a multiple of LANES)
@@ -177,7 +179,7 @@ module pgs_seq_records #(
             assign w_head_seen = '0;
             // the window's arguments and rejected flags, the records' padding, the stage's kind (the lane registers
             // the words at issue)
-            wire unused_stream = ^{lag, fetch, crec[CREC_W-1:64 + S1_WORDS*W], w_rej_q, s1_kind};
+            wire unused_stream = ^{lag, fetch, crec[CREC_W-1:64 + S1_WORDS*W], w_rej_q, s1_kind, first_start};
 
             always_ff @(posedge clk) begin
                 if (init) begin
@@ -219,7 +221,7 @@ module pgs_seq_records #(
                                                // candidate's, kept with its pass context)
             pgs_window #(.CONS_W(CONS_W), .REC_BEATS(LANES * WR_BEATS), .DEPTH(WINDOW), .CTX(WINDOW_CTX),
                          .PASS_W(ITER_W + 1), .HEAD_W(LANES * HL_W)) u_window (
-                .clk, .rst, .init, .nm(nm_rec), .passes, .fetch_passes(fetch[ITER_W:0]),
+                .clk, .rst, .init, .first_start, .nm(nm_rec), .passes, .fetch_passes(fetch[ITER_W:0]),
                 .lag, .fetch_en, .s_tdata(s_cons_tdata),
                 .s_tvalid(s_cons_tvalid), .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .asm_move(w_asm_move),
                 .asm_slot(w_asm_slot), .asm_first(w_asm_first), .wr_rec, .wr_head,

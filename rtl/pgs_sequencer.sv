@@ -199,6 +199,10 @@ module pgs_sequencer #(
                      || arg_iterations >= 32'(1 << ITER_W) || bad_window
                      || (arg_num_manifolds & 32'(LANES - 1)) != 0;
 
+    // the window's first pass starts in the first cycle of the step when it has passes and records (pgs_window; from the
+    // arguments the registers above take at the start)
+    wire  first_start = arg_iterations[ITER_W-1:0] != '0 && (arg_num_manifolds >> $clog2(LANES)) != 0;
+
     always_ff @(posedge clk) begin
         if (phase == S_IDLE && start) begin
             nb     <= arg_num_bodies;
@@ -260,7 +264,8 @@ module pgs_sequencer #(
                       .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX), .LANES(LANES),
                       .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS), .MU_W(MU_W), .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP))
         u_records (
-        .clk, .rst, .init, .fetch_en(phase == S_LOAD || in_solve), .nb, .nm, .iters, .passes, .ilv, .lag(r_lag),
+        .clk, .rst, .init, .first_start(first_start), .fetch_en(phase == S_LOAD || in_solve), .nb, .nm, .iters, .passes,
+        .ilv, .lag(r_lag),
         .fetch(r_fetch), .s_cons_tdata, .s_cons_tvalid, .s_cons_tready, .s_cons_tlast, .rec_valid(crec_valid),
         .rec_kind(rkind), .rec_trunc(crec_trunc), .pass(i_pass), .slot(i_slot), .slot_last, .fill(i_fill),
         .flush(c_flush), .err_tlast(c_tlast_err), .la, .lb, .l_sd, .l_empty_hdr, .l_index, .l_nonfinite, .l_fa,

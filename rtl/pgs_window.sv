@@ -27,10 +27,11 @@
 // (fetch_passes - 1) * lag + 2 <= DEPTH.
 // The ring is two arrays with one write port each (the record written, at ring address = global index mod
 // DEPTH): the *heads* (HEAD_W bits per record, `wr_head`, which the sequencer derives from the record `wr_rec`
-// being written: body indices, flags, the checks that depend only on the record) are read in the cycle a
-// candidate is offered (`cand_head`: distributed RAM on a board), the whole records are read one cycle after the
-// take (`rd_rec`, a registered read of the taken candidate's address: block RAM), when the sequencer's stage 1
-// needs the words. `cand_addr` is the candidate's ring address, `cand_first` / `cand_lastg` whether its pass is
+// being written: body indices, flags, the checks that depend only on the record) are read in the cycle before a
+// candidate is offered, at the address the next cycle's choice gives (`cand_head`: a registered read, block RAM
+// on a board; the choice is made a cycle ahead, below), the whole records are read one cycle after the take
+// (`rd_rec`, a registered read of the taken candidate's address: block RAM), when the sequencer's stage 1 needs
+// the words. `cand_addr` is the candidate's ring address, `cand_first` / `cand_lastg` whether its pass is
 // the first / the last of its fetch.
 //
 // Stream errors (code 1, tlast_err): a fetch whose TLAST comes early -- the record cut short is kept with its
@@ -54,6 +55,8 @@ module pgs_window #(
     input  wire                clk,
     input  wire                rst,
     input  wire                init,          // start of a step: clear the state
+    input  wire                first_start,   // a pass starts in the first cycle after init (the step has passes and
+                                              // records: from the run's arguments, as the sequencer samples them)
     input  wire  [31:0]        nm,
     input  wire  [PASS_W-1:0]  passes,
     input  wire  [PASS_W-1:0]  fetch_passes,
@@ -89,14 +92,15 @@ module pgs_window #(
 
     // ---------------- fetch into the ring ----------------
     logic [HEAD_W:0] cand_head_trunc;   // {truncated, head} of the candidate
-    logic [GI_W-1:0]  wr_cnt, res_cnt, free_cnt;   // records written / reserved (assembling) / freed
+    logic [GI_W-1:0]  wr_cnt;                      // records written
+    logic [AW:0]      used;                        // records reserved (assembling or written) and not yet freed
     logic [PASS_W:0]  f_base;                      // first pass of the fetch being assembled
     logic [31:0]      f_slot;
     logic             fill;                        // writing the truncated slots after an early TLAST
     logic             a_pending;                   // a record is done in the assembler, not yet written
 
     wire f_active = f_base < (PASS_W+1)'(passes) && nm != 0;
-    wire room     = res_cnt - free_cnt < GI_W'(DEPTH);
+    wire room     = !used[AW];   // used < DEPTH (it never passes DEPTH: a record is reserved only with room)
     wire f_last   = f_slot == nm - 1;
 
     logic [REC_W-1:0] arec;
@@ -128,41 +132,53 @@ module pgs_window #(
     pgs_ring_ram #(.WIDTH(REC_W), .DEPTH(DEPTH), .SYNC_READ(1'b1)) u_records (
         .clk, .wr_en(wr_step), .wr_addr(wr_cnt[AW-1:0]), .wr_data(wr_rec), .rd_en(take), .rd_addr(cand_addr),
         .rd_data(rd_rec));
-    pgs_ring_ram #(.WIDTH(HEAD_W + 1), .DEPTH(DEPTH), .SYNC_READ(1'b0)) u_heads (
-        .clk, .wr_en(wr_step), .wr_addr(wr_cnt[AW-1:0]), .wr_data({arec_valid ? arec_trunc : 1'b1, wr_head}),
-        .rd_en(1'b0), .rd_addr(cand_addr), .rd_data(cand_head_trunc));
+    // the heads: block RAM read at the next cycle's candidate address (`next_addr`, below), so that the head of the
+    // candidate is there when it is offered; a head written in the cycle of its read comes from the bypass register
+    logic [HEAD_W:0] head_ram, wr_head_trunc, head_byp;
+    logic            byp;
+    logic [AW-1:0]   next_addr;
+    logic [1:0]      next_written;   // the next address is the one written now, the candidate taken (1) or not (0)
+    assign wr_head_trunc = {arec_valid ? arec_trunc : 1'b1, wr_head};
+    pgs_ring_ram #(.WIDTH(HEAD_W + 1), .DEPTH(DEPTH), .SYNC_READ(1'b1)) u_heads (
+        .clk, .wr_en(wr_step), .wr_addr(wr_cnt[AW-1:0]), .wr_data(wr_head_trunc), .rd_en(1'b1),
+        .rd_addr(next_addr), .rd_data(head_ram));
+    always_ff @(posedge clk) begin
+        byp      <= wr_step && (take ? next_written[1] : next_written[0]);
+        head_byp <= wr_head_trunc;
+    end
+    assign cand_head_trunc = byp ? head_byp : head_ram;
 
     // ---------------- pass contexts ----------------
     logic [PASS_W-1:0] c_pass  [CTX];
     logic [31:0]       c_slot  [CTX];
     logic [GI_W-1:0]   c_gidx  [CTX];
     logic [CTX-1:0]    c_active, c_lastg, c_first, c_kind, skip;
+    logic [CTX-1:0]    c_last;            // the context's slot is its pass's last (c_slot == nm - 1)
     logic [PASS_W:0]   st_pass, jlo;      // next pass to start; oldest pass not done
     logic [PASS_W-1:0] st_k;              // st_pass's place in its fetch
     logic [GI_W-1:0]   st_base;           // global index of slot 0 of st_pass's fetch
 
     wire [CW-1:0] jlo_ctx = jlo[CW-1:0];
-    wire st_lastg   = st_k == fetch_passes - 1'b1 || st_pass == (PASS_W+1)'(passes) - 1'b1;
-    wire start_pass = st_pass < (PASS_W+1)'(passes) && st_pass - jlo < (PASS_W+1)'(CTX) && nm != 0
-                      && (!st_lastg || jlo >= st_pass - (PASS_W+1)'(st_k));
+    // a pass starts (st_pass, one a cycle) while one is left, fewer than CTX are not done, and a fetch's last pass
+    // only once every pass of the earlier fetches is done. `start_pass` is a register: the rule is evaluated a cycle
+    // ahead, on the next cycle's st_pass, st_k and jlo (none depends on the take), and after init from the run's
+    // arguments (first_start: st_pass = jlo = st_k = 0).
+    logic           start_pass;
+    wire            st_lastg = st_k == fetch_passes - 1'b1 || st_pass == (PASS_W+1)'(passes) - 1'b1;
+    wire [PASS_W:0] st_pass_next = st_pass + (PASS_W+1)'(start_pass);
+    wire [PASS_W-1:0] st_k_next  = !start_pass ? st_k : st_lastg ? '0 : st_k + 1'b1;
+    wire            st_lastg_next = st_k_next == fetch_passes - 1'b1 || st_pass_next == (PASS_W+1)'(passes) - 1'b1;
 
-    // a context's slot is a candidate: its record is in the ring, and the pass before it is done or far enough
-    // ahead. The two comparisons are registered (`in_ring`, `ahead`): each cycle they are computed for the next
-    // cycle's counters from this cycle's, once per way the take and the pass start can change them, and the take
-    // picks one at the end (the same values as comparing the next cycle's counters: no cycle changes).
-    logic [CTX-1:0] elig, in_ring, ahead;
-    always_comb begin
-        for (int k = 0; k < CTX; k++) begin
-            automatic logic [CW-1:0] p = CW'(k - 1);
-            // (an active context holds a pass from jlo on, pass j in context j mod CTX: it holds jlo when it is
-            // jlo's context)
-            automatic logic lag_ok = CW'(k) == jlo_ctx || !c_active[p] || ahead[k];
-            elig[k] = c_active[k] && in_ring[k] && lag_ok;
-        end
-    end
-
-    // the oldest eligible context not skipped; else the oldest eligible one (the contexts rotated to start at the
-    // oldest pass's, the first set bit found, rotated back)
+    // A context's slot is a candidate (eligible) when its record is in the ring and the pass before it is done or
+    // far enough ahead. Of the eligible contexts the oldest not skipped is offered, else the oldest eligible one (the
+    // contexts rotated to start at the oldest pass's, the first set bit found, rotated back).
+    //
+    // The choice is made a cycle ahead, so that no path runs from the take to the next cycle's choice and its head:
+    // each cycle computes the next cycle's state both ways this cycle can end (the candidate taken or not), chooses
+    // for each, and the take picks one choice into registers (`sel`, `any_elig`, `any_fresh`) and one address for
+    // the heads' block RAM read. These are the values a choice from the next cycle's registers would give: no cycle
+    // changes. The eligibility's two wide comparisons (the record in the ring, the pass before lag slots ahead) are
+    // each computed from the registers once per way the take and a pass start can change them.
     function automatic logic [CTX-1:0] rotate_down(input logic [CTX-1:0] v, input logic [CW-1:0] by);
         return CTX'({v, v} >> by);
     endfunction
@@ -172,16 +188,24 @@ module pgs_window #(
             if (v[off]) i = CW'(off);
         return i;
     endfunction
-    logic [CW-1:0] sel;
-    logic          any_fresh, any_elig;
-    always_comb begin
-        automatic logic [CTX-1:0] r_elig  = rotate_down(elig, jlo_ctx);
-        automatic logic [CTX-1:0] r_fresh = rotate_down(elig & ~skip, jlo_ctx);
-        any_elig  = r_elig != '0;
-        any_fresh = r_fresh != '0;
-        sel = jlo_ctx + (any_fresh ? first_set(r_fresh) : first_set(r_elig));
-    end
+    typedef struct packed {
+        logic          any_elig;    // a candidate
+        logic          any_fresh;   // ... one not skipped
+        logic [CW-1:0] sel;         // its context
+    } choice_t;
+    function automatic choice_t choose(input logic [CTX-1:0] elig, input logic [CTX-1:0] skp,
+                                       input logic [CW-1:0] oldest);
+        automatic logic [CTX-1:0] r_elig  = rotate_down(elig, oldest);
+        automatic logic [CTX-1:0] r_fresh = rotate_down(elig & ~skp, oldest);
+        choice_t c;
+        c.any_elig  = r_elig != '0;
+        c.any_fresh = r_fresh != '0;
+        c.sel       = oldest + (c.any_fresh ? first_set(r_fresh) : first_set(r_elig));
+        return c;
+    endfunction
 
+    logic [CW-1:0]  sel;              // registered: this cycle's choice
+    logic           any_fresh, any_elig;
     assign cand_valid = any_elig;
     assign cand_addr  = c_gidx[sel][AW-1:0];
     assign cand_head  = cand_head_trunc[HEAD_W-1:0];
@@ -193,50 +217,76 @@ module pgs_window #(
     assign cand_pass  = c_pass[sel];
     assign cand_slot  = c_slot[sel];
     assign all_done   = jlo == (PASS_W+1)'(passes);
-    wire   step_last  = c_slot[sel] == nm - 1;
+    wire   step_last  = c_last[sel];
 
-    // the registered comparisons of the next cycle (see elig): a context k started now (slot 0, record st_base),
-    // taken now (its slot and record one on) or neither; the context p before it likewise; a record written now
-    // (wr_cnt one on). d: slots pass p is ahead of k beyond the lag; g: records in the ring beyond k's.
+    // the next cycle's state, taken (index 1) or not (0): a context k started now (slot 0, record st_base), taken
+    // now (its slot and record one on) or neither; the context p before it likewise; a record written now (wr_cnt
+    // one on). d: slots pass p is ahead of k beyond the lag; g: records in the ring beyond k's.
     localparam int DW = 34;
     localparam int GW = GI_W + 1;
-    wire [CW-1:0] st_ctx = st_pass[CW-1:0];
-    logic [CTX-1:0] ahead_next, in_ring_next;
+    wire [CW-1:0]    st_ctx   = st_pass[CW-1:0];
+    wire             jlo_step = jlo < st_pass && !c_active[jlo_ctx];   // the oldest pass is done: jlo moves on
+    wire [PASS_W:0]  jlo_next = jlo + (PASS_W+1)'(jlo_step);
+    wire start_pass_next = st_pass_next < (PASS_W+1)'(passes) && st_pass_next - jlo_next < (PASS_W+1)'(CTX) && nm != 0
+                           && (!st_lastg_next || jlo_next >= st_pass_next - (PASS_W+1)'(st_k_next));
+    logic [CTX-1:0]  ahead_next [2], in_ring_next [2], active_next [2], skip_next [2], elig_next [2];
+    choice_t         choice_next [2];
+    logic [AW-1:0]   addr_next [2];
     always_comb begin
         automatic logic signed [GW-1:0] st_room = $signed({1'b0, wr_cnt}) - $signed({1'b0, st_base});
-        for (int k = 0; k < CTX; k++) begin
-            automatic logic [CW-1:0] p = CW'(k - 1);
-            automatic logic take_k = take && sel == CW'(k);
-            automatic logic take_p = take && sel == p;
-            automatic logic signed [DW-1:0] d = $signed(DW'(c_slot[p])) - $signed(DW'(c_slot[k]))
-                                                 - $signed(DW'(lag));
-            automatic logic signed [DW-1:0] e = $signed(DW'(c_slot[p])) - $signed(DW'(lag));
-            automatic logic signed [GW-1:0] g = $signed({1'b0, wr_cnt}) - $signed({1'b0, c_gidx[k]});
-            // c_slot[p] + take_p >= c_slot[k] + take_k + lag, c_gidx[k] + take_k < wr_cnt + wr_step
-            if (start_pass && st_ctx == CW'(k)) begin
-                ahead_next[k]   = take_p ? e >= -1 : e >= 0;
-                in_ring_next[k] = wr_step ? st_room >= 0 : st_room > 0;
-            end else begin
-                if (start_pass && st_ctx == p) ahead_next[k] = 1'b0;   // slot 0 is never lag >= 1 ahead
-                else if (take_p)               ahead_next[k] = d >= -1;
-                else if (take_k)               ahead_next[k] = d >= 1;
-                else                           ahead_next[k] = d >= 0;
-                // (each comparison from the registers; the write and the take only choose one)
-                if (take_k) in_ring_next[k] = wr_step ? g > 0 : g > 1;
-                else        in_ring_next[k] = wr_step ? g >= 0 : g > 0;
+        for (int o = 0; o < 2; o++) begin
+            for (int k = 0; k < CTX; k++) begin
+                automatic logic [CW-1:0] p = CW'(k - 1);
+                automatic logic take_k = o == 1 && sel == CW'(k);
+                automatic logic take_p = o == 1 && sel == p;
+                automatic logic signed [DW-1:0] d = $signed(DW'(c_slot[p])) - $signed(DW'(c_slot[k]))
+                                                     - $signed(DW'(lag));
+                automatic logic signed [DW-1:0] e = $signed(DW'(c_slot[p])) - $signed(DW'(lag));
+                automatic logic signed [GW-1:0] g = $signed({1'b0, wr_cnt}) - $signed({1'b0, c_gidx[k]});
+                // c_slot[p] + take_p >= c_slot[k] + take_k + lag, c_gidx[k] + take_k < wr_cnt + wr_step
+                if (start_pass && st_ctx == CW'(k)) begin
+                    ahead_next[o][k]   = take_p ? e >= -1 : e >= 0;
+                    in_ring_next[o][k] = wr_step ? st_room >= 0 : st_room > 0;
+                end else begin
+                    if (start_pass && st_ctx == p) ahead_next[o][k] = 1'b0;   // slot 0 is never lag >= 1 ahead
+                    else if (take_p)               ahead_next[o][k] = d >= -1;
+                    else if (take_k)               ahead_next[o][k] = d >= 1;
+                    else                           ahead_next[o][k] = d >= 0;
+                    if (take_k) in_ring_next[o][k] = wr_step ? g > 0 : g > 1;
+                    else        in_ring_next[o][k] = wr_step ? g >= 0 : g > 0;
+                end
+                // (a start and a finish never hit the same context: st_pass - jlo < CTX)
+                active_next[o][k] = (start_pass && st_ctx == CW'(k)) || (c_active[k] && !(take_k && step_last));
             end
+            // a take clears the skip marks; an offer not taken marks its pass (or clears them: every one skipped)
+            skip_next[o] = o == 1 ? '0 : !any_elig ? skip : any_fresh ? skip | (CTX'(1) << sel) : '0;
+            for (int k = 0; k < CTX; k++) begin
+                automatic logic [CW-1:0] p = CW'(k - 1);
+                // (an active context holds a pass from jlo on, pass j in context j mod CTX: it holds jlo when it is
+                // jlo's context)
+                elig_next[o][k] = active_next[o][k] && in_ring_next[o][k]
+                                  && (CW'(k) == jlo_next[CW-1:0] || !active_next[o][p] || ahead_next[o][k]);
+            end
+            choice_next[o] = choose(elig_next[o], skip_next[o], jlo_next[CW-1:0]);
+            if (start_pass && st_ctx == choice_next[o].sel) addr_next[o] = st_base[AW-1:0];
+            else if (o == 1 && sel == choice_next[o].sel)  addr_next[o] = c_gidx[sel][AW-1:0] + 1'b1;
+            else                                          addr_next[o] = c_gidx[choice_next[o].sel][AW-1:0];
+            next_written[o] = addr_next[o] == wr_cnt[AW-1:0];
         end
     end
+    assign next_addr = take ? addr_next[1] : addr_next[0];
     always_ff @(posedge clk) begin
-        ahead   <= ahead_next;
-        in_ring <= in_ring_next;
+        if (rst || init) {any_elig, any_fresh, sel} <= '0;   // no context active
+        else             {any_elig, any_fresh, sel} <= take ? choice_next[1] : choice_next[0];
+        if (rst)       start_pass <= 1'b0;
+        else if (init) start_pass <= first_start;
+        else           start_pass <= start_pass_next;
     end
 
     always_ff @(posedge clk) begin
         if (rst || init) begin
             wr_cnt   <= '0;
-            res_cnt  <= '0;
-            free_cnt <= '0;
+            used     <= '0;
             f_base   <= '0;
             f_slot   <= '0;
             fill     <= 1'b0;
@@ -253,7 +303,9 @@ module pgs_window #(
             if (wr_step) wr_cnt <= wr_cnt + 1'b1;
             if (a_done) a_pending <= 1'b1;
             else if (arec_valid) a_pending <= 1'b0;
-            if (a_done || fill_step) res_cnt <= res_cnt + 1'b1;
+            // a record reserved (its last beat taken, or a truncated slot), one freed (the take of its fetch's last
+            // pass)
+            used <= used + (AW+1)'(a_done || fill_step) - (AW+1)'(take && c_lastg[sel]);
             if (a_done || fill_step) begin
                 if (f_last) begin
                     f_slot <= '0;
@@ -270,29 +322,25 @@ module pgs_window #(
             if (start_pass) begin
                 c_pass[st_pass[CW-1:0]]   <= st_pass[PASS_W-1:0];
                 c_slot[st_pass[CW-1:0]]   <= '0;
+                c_last[st_pass[CW-1:0]]   <= nm == 32'd1;
                 c_gidx[st_pass[CW-1:0]]   <= st_base;
                 c_lastg[st_pass[CW-1:0]]  <= st_lastg;
                 c_first[st_pass[CW-1:0]]  <= st_k == '0;
                 c_kind[st_pass[CW-1:0]]   <= start_kind;
-                st_pass <= st_pass + 1'b1;
-                st_k    <= st_lastg ? '0 : st_k + 1'b1;
                 if (st_lastg) st_base <= st_base + GI_W'(nm);
             end
             // step the candidate's pass
             if (take) begin
                 c_slot[sel] <= c_slot[sel] + 1;
+                c_last[sel] <= c_slot[sel] + 32'd2 == nm;
                 c_gidx[sel] <= c_gidx[sel] + 1'b1;
-                if (c_lastg[sel]) free_cnt <= free_cnt + 1'b1;
-                skip <= '0;
-            end else if (cand_valid) begin
-                skip <= any_fresh ? skip | (CTX'(1) << sel) : '0;
             end
-            // context activity (a start and a finish never hit the same context: st_pass - jlo < CTX)
-            for (int k = 0; k < CTX; k++) begin
-                if (start_pass && CW'(k) == st_pass[CW-1:0]) c_active[k] <= 1'b1;
-                else if (take && CW'(k) == sel && step_last) c_active[k] <= 1'b0;
-            end
-            if (jlo < st_pass && !c_active[jlo_ctx]) jlo <= jlo + 1'b1;
+            st_pass <= st_pass_next;
+            st_k    <= st_k_next;
+            // the skip marks, the contexts' activity and the oldest pass (as the choice above computed them)
+            skip     <= take ? skip_next[1] : skip_next[0];
+            c_active <= take ? active_next[1] : active_next[0];
+            jlo      <= jlo_next;
         end
     end
 

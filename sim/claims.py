@@ -150,6 +150,7 @@ MEASURES: dict[str, Callable[[Optional[AnyRunResult]], Any]] = {
     # the shares are the Yosys estimate's, the margin the binding resource's at the pessimistic end, in points
     "fits": lambda r: _band(r).fits,
     "fit_margin_points": lambda r: _band(r).binding.margin_points,
+    "fit_margin_resource": lambda r: _band(r).binding.resource,
     "lut_share": lambda r: _fit(r).shares["LUT"],
     "bram_share": lambda r: _fit(r).shares["BRAM36"],
     "binding_resource": _binding,

@@ -142,7 +142,7 @@ def cached_exact_reference(bodies: BodyTable, cons: ConstraintSet, cache_dir: st
     if (earlier is not None and earlier["time_s"] >= budget.time_s and earlier["memory_bytes"] >= budget.memory_bytes
             and earlier.get("large_island_method") == large_island.LARGE_ISLAND_METHOD):
         raise ExactReferenceError(f"{earlier['reason']} (recorded by an earlier attempt with a budget of "
-                                  f"{earlier['time_s']:.0f} s; delete {failed} to try again)")
+                                  f"{earlier['time_s']:.0f} s; a larger budget, make's EXACT_BUDGET, tries again)")
     t0 = time.perf_counter()
     try:
         ref = exact_reference_bounded(bodies, cons, params, budget)

@@ -11,9 +11,9 @@ Fetch (``pgs_window``, during LOAD and SOLVE)
       LANES x (beats of one lane's window record) beats, TLAST on each fetch's last beat: the harness starts the
       next transfer then (its first beat offered ``startup`` cycles after that TLAST), and the DDR bucket is the
       streaming model's (:class:`models.timing.prediction.DdrBucket`: body-in beats spend first).
-    * The assembler takes one beat a cycle while the ring has room: ``res_cnt - free_cnt < DEPTH``, where
-      ``res_cnt`` counts the records whose final beat was taken in an earlier cycle and ``free_cnt`` the takes of
-      a fetch's last pass in earlier cycles. Global record ``g`` (fetch x records + record) whose final beat is
+    * The assembler takes one beat a cycle while the ring has room: ``used < DEPTH``, where ``used`` counts the
+      records whose final beat was taken in an earlier cycle less the takes of a fetch's last pass in earlier
+      cycles. Global record ``g`` (fetch x records + record) whose final beat is
       taken at ``x`` is in the ring (``wr_cnt``) from ``x + 3`` (accumulator, record register, ring write).
 Passes (``pgs_window``)
     * Pass ``j`` is started (context ``j mod CTX``, slot 0, record base = its fetch x records) in the first cycle

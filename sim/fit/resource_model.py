@@ -319,7 +319,7 @@ class MemoryArray:
     width: int  # bits
     copies: int  # replicas / banks for the ports
     true_dual_port: bool = False  # each copy serves two ports
-    distributed: bool = False  # read in the cycle it is addressed: LUT RAM (the window's ring heads)
+    distributed: bool = False  # read in the cycle it is addressed: LUT RAM (the on-chip impulses' rejected-slot flags)
 
     def resources(self, uram: bool = False) -> Resources:
         """One copy per port pair: in LUT RAM (``distributed``), UltraRAM (``uram``, deep arrays) or block RAM."""
@@ -441,15 +441,15 @@ WINDOW_HEAD_FLAGS = 6  # a lane's head beside its two body indices: 5 flags (pgs
 def window_memories(cfg: KernelConfig) -> list[MemoryArray]:
     """The window kernel's rings (``rtl/pgs_window.sv``, ``rtl/pgs_ring_ram.sv``): the records' words in block RAM
     (read the cycle after the take; a fetch of the impulses-in-records design streams its one kind's records:
-    the contact record with lam[4] is the longer), their heads in LUT RAM (read when offered: two body indices and
-    the flags per lane), and with the impulses in the records the impulse ring (4 words per lane, written at retire,
-    read at issue)."""
+    the contact record with lam[4] is the longer), their heads in block RAM (read the cycle before the record is
+    offered: two body indices and the flags per lane), and with the impulses in the records the impulse ring (4 words
+    per lane, written at retire, read at issue)."""
     rec = cfg.record_bits or cfg.fmt.width
     words = WINDOW_WORDS if cfg.impulses_resident else max(CONTACT_WORDS + 4, FRICTION_WORDS + IMPULSE_WORDS)
     idx = max(1, math.ceil(math.log2(max(cfg.max_bodies, 2))))
     out = [MemoryArray(f"record ring ({words} words of {rec} bits per lane)", cfg.window, cfg.lanes * words * rec, 1),
            MemoryArray(f"record ring heads (2 x {idx}-bit body indices and {WINDOW_HEAD_FLAGS} flag bits per lane, "
-                       "LUT RAM)", cfg.window, cfg.lanes * (2 * idx + WINDOW_HEAD_FLAGS), 1, distributed=True)]
+                       "block RAM)", cfg.window, cfg.lanes * (2 * idx + WINDOW_HEAD_FLAGS), 1)]
     if not cfg.impulses_resident:
         out.append(MemoryArray(f"impulse ring ({IMPULSE_OUT_WORDS} words per lane)", cfg.window,
                                IMPULSE_OUT_WORDS * rec, cfg.lanes))

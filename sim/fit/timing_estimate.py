@@ -9,16 +9,15 @@ of its kernel) and those that cross between them, joined here at the control's b
   (and the other way for its outputs; a port's worst arrival is joined with the worst path of the other side, which
   can pair two bits that are not connected: pessimistic);
 * a memory the control run keeps as a black box (``CONTROL_BLACKBOXES``), mapped as the resource model maps it:
-  block RAM (the records' ring, the impulse ring and RAM, the rejected-slot flags with the impulses in the records,
-  the body RAM's banks) starts a path at the block RAM's clock-to-out and ends one at its setup; an asynchronous
-  distributed RAM (the window's ring heads, read in the cycle they are addressed; the rejected-slot flags with the
-  impulses on chip) is a read tree: the LUT RAM read and a 4:1 LUT per level of the depth multiplexer; the body RAM's
+  block RAM (the records' ring and their heads, the impulse ring and RAM, the rejected-slot flags with the impulses
+  in the records, the body RAM's banks) starts a path at the block RAM's clock-to-out and ends one at its setup; an
+  asynchronous distributed RAM (the rejected-slot flags with the impulses on chip) is a read tree: the LUT RAM read and a 4:1 LUT per level of the depth multiplexer; the body RAM's
   banked reads add the multiplexer from the 2 x banks port outputs, its writes the one from the 2 x lanes writes
   (``resource_model.bank_mux_resources``: computed, not synthesized);
 * the body RAM's dynamic and bad flags (distributed RAM, a bit per body, read asynchronously at the offered record's
   bodies: ``rtl/pgs_body_ram.sv`` dyn_addr) are a read tree of the scene's bodies after the address: in the window
-  kernel the address is the ring heads' read (the heads' address arrival, the heads' read tree, then the flags'),
-  in the streaming kernel a register (the record assembler's).
+  kernel the address is the ring heads' block RAM output (read a cycle ahead: ``rtl/pgs_window.sv``), in the
+  streaming kernel a register (the record assembler's).
 
 The delay lines a build keeps in block RAM (``delay_block_min_depth``) start their taps' paths at the block RAM's
 clock-to-out: each pipe's depth is committed for the thresholds the builds use. The control of two lanes is the
@@ -311,7 +310,7 @@ def _boundaries(cfg: rm.KernelConfig, control: dict[str, Any], analyses: dict[st
             continue
         if btype == "pgs_ring_ram" and _distributed_ring(inst):
             addr = control["box_in"].get(f"{inst}:rd_addr")
-            depth = cfg.window if "u_heads" in inst else math.ceil(cfg.max_manifolds / cfg.lanes)
+            depth = math.ceil(cfg.max_manifolds / cfg.lanes)
             if addr is not None:
                 out.append(_join("control -> LUT RAM read -> control", addr, p, read_tree(depth, f)))
             continue
@@ -331,13 +330,12 @@ def _body_flags_read(cfg: rm.KernelConfig, control: dict[str, Any], flag_path: d
     """The body RAM's flag read at the offered record's bodies, then the control's path from the flag (see the module
     docstring)."""
     flags = read_tree(cfg.max_bodies, f)
-    heads = next((p for k, p in control["box_in"].items() if k.endswith(":rd_addr") and "u_heads" in k), None)
-    if cfg.window and heads is not None:
-        ring = read_tree(cfg.window, f)
-        both = _piece(f"{ring.where}, then the body flags' {flags.where}", ring.delay_ns + flags.delay_ns,
-                      luts=ring.luts + flags.luts)
-        return _join("control -> LUT RAM read (ring heads) -> LUT RAM read (body flags) -> control", heads,
-                     flag_path, both)
+    if cfg.window:  # the heads' block RAM, the bypass multiplexer of a head written in the cycle of its read
+        start = {"delay_ns": f.bram_clock_to_out, "luts": 0, "carry8": 0, "muxf": 0, "dsp": 0,
+                 "start": "the offered record's body indices (the ring heads' block RAM)", "cells": "RAMB"}
+        both = _piece(f"the heads' bypass multiplexer, then the body flags' {flags.where}",
+                      f.lut_level + flags.delay_ns, luts=1 + flags.luts)
+        return _join("ring heads' block RAM -> LUT RAM read (body flags) -> control", start, flag_path, both)
     start = {"delay_ns": f.ff_clock_to_q, "luts": 0, "carry8": 0, "muxf": 0, "dsp": 0,
              "start": "the offered record's body indices (a register)", "cells": ""}
     return _join("register -> LUT RAM read (body flags) -> control", start, flag_path, flags)
@@ -358,9 +356,9 @@ def _pipe_join(btype: str, pin: str, control_path: dict[str, Any], analyses: dic
 
 
 def _distributed_ring(inst: str) -> bool:
-    """A pgs_ring_ram read asynchronously (SYNC_READ = 0): the window's heads (rtl/pgs_window.sv u_heads) and the
-    rejected-slot flags of the on-chip impulses (rtl/pgs_sequencer.sv g_rej_window)."""
-    return "u_heads" in inst or "g_rej_window" in inst
+    """A pgs_ring_ram read asynchronously (SYNC_READ = 0): the rejected-slot flags of the on-chip impulses
+    (rtl/pgs_seq_issue.sv g_rej_window)."""
+    return "g_rej_window" in inst
 
 
 def timing_or_reason(cfg: rm.KernelConfig, platform: platforms.Platform) -> Union[TimingVerdict, NoTiming]:

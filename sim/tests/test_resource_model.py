@@ -45,15 +45,15 @@ def test_levers_shrink_the_memories() -> None:
 def test_window_rings() -> None:
     """The window kernel's rings (rtl/pgs_ring_ram.sv): the records' words in block RAM (a fetch of the records
     design streams one kind: the contact record with lam[4], 27 words; on-chip impulses: both kinds' 37), their
-    heads in LUT RAM (two 16-bit body indices for the thesis's bodies and 6 flag bits per lane), the impulse ring
+    heads in block RAM (two 16-bit body indices for the thesis's bodies and 6 flag bits per lane), the impulse ring
     (4 words per lane) with the impulses in the records."""
     by_name = lambda cfg: {m.name.split(" (")[0]: m for m in rm.memories(cfg)}  # noqa: E731
     records = by_name(rm.KernelConfig(FP16, *THESIS, lanes=2, window=8192, impulses_resident=False))
     resident = by_name(rm.KernelConfig(FP16, *THESIS, lanes=2, window=8192))
     assert records["record ring"].width == 2 * 27 * 16 and resident["record ring"].width == 2 * 37 * 16
     heads = records["record ring heads"]
-    assert heads.distributed and heads.width == 2 * (2 * 16 + 6) and heads.depth == 8192
-    assert heads.resources().lut == rm.distributed_ram_luts(8192, 76, narrow=True) > 0 and heads.resources().bram36 == 0
+    assert not heads.distributed and heads.width == 2 * (2 * 16 + 6) and heads.depth == 8192
+    assert heads.resources().lut == 0 and heads.resources().bram36 == rm.bram36_for(8192, 76) == 18  # 4K x 9 each
     # a bit per slot (of each lane): read as a record is written (block RAM) with the impulses in the records, at the
     # offered slot (LUT RAM, RAM64X1D: 2 LUTs per 64 bits and a mux) with the impulses on chip
     flags, resident_flags = records["rejected-slot flags"], resident["rejected-slot flags"]

@@ -1,5 +1,5 @@
 """A configuration's timing estimate (sim/fit/timing_estimate.py) on synthetic unit analyses: the worst path against
-the clock's budget, the joins at the control's black boxes (pipes, block RAM, the distributed ring heads), the clock a
+the clock's budget, the joins at the control's black boxes (pipes, block RAM, a distributed RAM's read tree), the clock a
 design's latency is quoted at; and the committed timing figures against the code and delay figures that made them."""
 
 from __future__ import annotations
@@ -101,45 +101,51 @@ def test_the_scalar_shared_datapath_is_timed_with_the_default_ones_run() -> None
     assert isinstance(full, te.TimingVerdict) and full.missing == ["pgs_shared_pipe_full (no Yosys run of it)"]
 
 
-def test_ring_heads_read_through_the_lut_ram_tree() -> None:
-    cfg = rm.KernelConfig(FP32, 100, 100, window=8192, impulses_resident=False, body_ports="banked")
-    control = unit(1.0, 2, boxes={"u_seq.u_window.u_heads": "pgs_ring_ram", "u_seq.u_window.u_records": "pgs_ring_ram"},
-                   box_in={"u_seq.u_window.u_heads:rd_addr": path(1.0, 3, "jlo"),
-                           "u_seq.u_window.u_records:rd_addr": path(1.0, 3, "jlo")},
+def test_ring_heads_and_records_are_block_ram() -> None:
+    """The window's ring heads and records are block RAMs: a path into one ends at its setup, one out of it starts at
+    its clock-to-out; the rejected-slot flags of the on-chip impulses are read through the LUT RAM tree."""
+    cfg = rm.KernelConfig(FP32, 100, 100, window=8192, impulses_resident=True, body_ports="banked")
+    flags_box = "u_seq.u_issue.g_rej_window.g_lane_rej[0].u_slot_rej"
+    control = unit(1.0, 2, boxes={"u_seq.u_window.u_heads": "pgs_ring_ram", "u_seq.u_window.u_records": "pgs_ring_ram",
+                                  flags_box: "pgs_ring_ram"},
+                   box_in={"u_seq.u_window.u_heads:rd_addr": path(1.0, 3, "take"),
+                           "u_seq.u_window.u_records:rd_addr": path(1.0, 3, "jlo"),
+                           f"{flags_box}:rd_addr": path(0.8, 2, "sel")},
                    box_out={"u_seq.u_window.u_heads:rd_data": path(0.5, 2, end="issue"),
-                            "u_seq.u_window.u_records:rd_data": path(0.5, 2, end="s1")})
+                            "u_seq.u_window.u_records:rd_data": path(0.5, 2, end="s1"),
+                            f"{flags_box}:rd_data": path(0.6, 3, end="take")})
     d = data(control)
     d["units"]["fp32"]["control_window"] = d["units"]["fp32"].pop("control")
     v = te.timing(cfg, ZCU102, d)
     assert isinstance(v, te.TimingVerdict)
-    tree = te.read_tree(8192)
-    assert tree.luts == 1 + math.ceil(math.log(8192 / 64, 4)) == 5
-    heads = next(p for p in v.paths if "LUT RAM read" in p.where)
-    assert heads.delay_ns == pytest.approx(1.5 + tree.delay_ns) and heads.luts == 10 and heads.end == "issue"
-    records = next(p for p in v.paths if p.where == "block RAM -> control")
-    assert records.delay_ns == pytest.approx(F.bram_clock_to_out + 0.5)
-    assert any(p.where == "control -> block RAM" and p.delay_ns == pytest.approx(1.0 + F.net(1) + F.bram_setup)
-               for p in v.paths)
+    outs = sorted(p.end for p in v.paths if p.where == "block RAM -> control")
+    assert outs == ["issue", "s1"]
+    assert all(p.delay_ns == pytest.approx(F.bram_clock_to_out + 0.5) for p in v.paths if p.where == "block RAM -> control")
+    ins = [p for p in v.paths if p.where == "control -> block RAM"]
+    assert len(ins) == 2 and all(p.delay_ns == pytest.approx(1.0 + F.net(1) + F.bram_setup) for p in ins)
+    tree = te.read_tree(100)
+    rej = next(p for p in v.paths if "LUT RAM read" in p.where)
+    assert rej.delay_ns == pytest.approx(1.4 + tree.delay_ns) and rej.luts == 5 + tree.luts and rej.end == "take"
 
 
 def test_body_flags_read_after_the_ring_heads() -> None:
-    """The body RAM's dynamic / bad flags are read at the offered record's bodies: in the window kernel after the ring
-    heads' read (both read trees on the path), in the streaming kernel from the assembler's register."""
+    """The body RAM's dynamic / bad flags are read at the offered record's bodies: in the window kernel from the ring
+    heads' block RAM output (read a cycle ahead), in the streaming kernel from the assembler's register."""
     window = rm.KernelConfig(FP32, 40000, 100, window=8192, impulses_resident=False, body_ports="banked")
     control = unit(1.0, 2, boxes={"u_seq.u_window.u_heads": "pgs_ring_ram", "u_seq.u_body_ram": "pgs_body_ram"},
-                   box_in={"u_seq.u_window.u_heads:rd_addr": path(1.0, 3, "jlo")},
+                   box_in={"u_seq.u_window.u_heads:rd_addr": path(1.0, 3, "take")},
                    box_out={"u_seq.u_window.u_heads:rd_data": path(0.5, 2, end="issue"),
                             "u_seq.u_body_ram:dyn": path(0.7, 4, end="cam")})
     d = data(control)
     d["units"]["fp32"]["control_window"] = d["units"]["fp32"].pop("control")
     v = te.timing(window, ZCU102, d)
     assert isinstance(v, te.TimingVerdict)
-    heads, flags = te.read_tree(8192), te.read_tree(40000)
+    flags = te.read_tree(40000)
     assert flags.luts == 1 + math.ceil(math.log(math.ceil(40000 / 64), 4)) == 6
-    both = next(p for p in v.paths if "body flags" in p.where)
-    assert both.delay_ns == pytest.approx(1.0 + heads.delay_ns + flags.delay_ns + 0.7)
-    assert both.luts == 3 + heads.luts + flags.luts + 4 and (both.start, both.end) == ("jlo", "cam")
-    assert v.worst is both  # the deepest path of this kernel
+    read = next(p for p in v.paths if "body flags" in p.where)
+    assert read.delay_ns == pytest.approx(F.bram_clock_to_out + F.lut_level + flags.delay_ns + 0.7)  # the bypass mux
+    assert read.luts == 1 + flags.luts + 4 and read.end == "cam" and "block RAM" in read.start
+    assert v.worst is read  # the deepest path of this kernel
     stream = te.timing(dataclasses.replace(CFG, max_bodies=40000), ZCU102,
                        data(unit(1.0, 2, boxes={"u_seq.u_body_ram": "pgs_body_ram"},
                                  box_out={"u_seq.u_body_ram:bad": path(0.7, 4, end="take")})))
