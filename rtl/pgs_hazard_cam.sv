@@ -58,16 +58,16 @@ module pgs_hazard_cam #(
     end
 
     // each candidate body against every live body in flight; its dynamic flag gates the match at the end (the flag
-    // comes from the issue checks, later in the cycle than the body indices)
+    // comes from the issue checks, later in the cycle than the body indices). The hits are gathered in a vector and
+    // reduced with one OR (a balanced tree in the elaborated netlist), not assigned one by one (a chain).
     logic [NB-1:0] match;
     always_comb begin
-        match = '0;
-        for (int i = 0; i < DEPTH; i++) begin
-            for (int e = 0; e < NB; e++) begin
-                for (int c = 0; c < NB; c++) begin
-                    if (live[i][e] && ent[i][e*IDX_W +: IDX_W] == cand[c*IDX_W +: IDX_W]) match[c] = 1'b1;
-                end
-            end
+        for (int c = 0; c < NB; c++) begin
+            automatic logic [DEPTH*NB-1:0] hit;
+            for (int i = 0; i < DEPTH; i++)
+                for (int e = 0; e < NB; e++)
+                    hit[i*NB + e] = live[i][e] && ent[i][e*IDX_W +: IDX_W] == cand[c*IDX_W +: IDX_W];
+            match[c] = |hit;
         end
     end
     assign hazard = (match & cand_dyn) != '0;

@@ -108,8 +108,8 @@ module pgs_kernel #(
     logic        ap_start, ap_done, ap_idle;
     logic [31:0] num_bodies, num_manifolds, iterations, dt, gx, gy, gz, damping, options, lag, fetch_passes,
                  keep_dyn, keep_static;
-    logic [7:0]  err_set, err_code;
-    logic [2:0]  fp_set;
+    logic [7:0]  err_set, err_code, err_set_q, err_code_q;
+    logic [2:0]  fp_set, fp_set_q;
     logic [63:0] stat_cycles;
     logic [31:0] stat_stalls, stat_bubbles, stat_issued, stat_rejected, stat_fp_overflow, stat_fp_underflow,
                  stat_fp_invalid;
@@ -123,8 +123,16 @@ module pgs_kernel #(
         .s_axi_control_RRESP, .interrupt,
         .ap_start, .ap_done, .ap_idle, .ap_ready(ap_done),
         .num_bodies, .num_manifolds, .iterations, .dt, .gravity_x(gx), .gravity_y(gy), .gravity_z(gz),
-        .damping, .options, .lag, .fetch_passes, .keep_dyn, .keep_static, .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued,
-        .stat_rejected, .stat_fp_overflow, .stat_fp_underflow, .stat_fp_invalid);
+        .damping, .options, .lag, .fetch_passes, .keep_dyn, .keep_static, .err_set(err_set_q), .err_code(err_code_q),
+        .fp_set(fp_set_q), .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued, .stat_rejected, .stat_fp_overflow,
+        .stat_fp_underflow, .stat_fp_invalid);
+
+    // the error and floating-point event flags reach the status registers a cycle after they are raised, so that no
+    // path runs from the issue decision or a datapath's flags into the registers' update in the same cycle
+    always_ff @(posedge ap_clk) begin
+        if (ap_rst_n_inv) {err_set_q, err_code_q, fp_set_q} <= '0;
+        else              {err_set_q, err_code_q, fp_set_q} <= {err_set, err_code, fp_set};
+    end
 
     pgs_sequencer #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),

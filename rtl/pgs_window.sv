@@ -219,41 +219,104 @@ module pgs_window #(
     assign all_done   = jlo == (PASS_W+1)'(passes);
     wire   step_last  = c_last[sel];
 
-    // the next cycle's state, taken (index 1) or not (0): a context k started now (slot 0, record st_base), taken
-    // now (its slot and record one on) or neither; the context p before it likewise; a record written now (wr_cnt
-    // one on). d: slots pass p is ahead of k beyond the lag; g: records in the ring beyond k's.
+    // The eligibility's two comparisons (the pass before lag slots ahead, the record in the ring) are on differences
+    // that move by at most one a cycle: the pass before's slot minus k's minus the lag (`d`), k's slot minus the lag
+    // (`e`, for the context started after k), the records written minus k's record (`g`), and minus st_base (`sr`).
+    // Each cycle computes them for the next cycle (the candidate not taken: a start resets a context's slot and
+    // record, a write moves wr_cnt on) and registers the few comparisons with small constants the next cycle's
+    // choice needs, shifted by one where the take moves them (the take picks). So the choice reads flags, not a wide
+    // subtraction. Exact from the second cycle of a step: the first's choice reads only a started context's `sr`
+    // (reset with wr_cnt and st_base) and the `e` of a context not active (the lag is sampled as the step starts).
+    wire [CW-1:0] st_ctx = st_pass[CW-1:0];
     localparam int DW = 34;
     localparam int GW = GI_W + 1;
-    wire [CW-1:0]    st_ctx   = st_pass[CW-1:0];
-    wire             jlo_step = jlo < st_pass && !c_active[jlo_ctx];   // the oldest pass is done: jlo moves on
+    // x >= t for t = -3 .. 3 at bit t + 3 (a sign and the bits above the lowest two all zero or all one)
+    function automatic logic [6:0] at_least(input logic signed [GW-1:0] x);
+        automatic logic neg = x[GW-1];
+        automatic logic hi0 = x[GW-1:2] == '0, hi1 = &x[GW-1:2];
+        automatic logic [1:0] lo = x[1:0];
+        return {!neg && (!hi0 || lo == 2'd3), !neg && (!hi0 || lo[1]), !neg && (!hi0 || lo != 2'd0), !neg,
+                !neg || (hi1 && lo == 2'd3), !neg || (hi1 && lo[1]), !neg || (hi1 && lo != 2'd0)};
+    endfunction
+    logic [1:0] e_at [CTX];   // {e >= 0, e >= -1}
+    logic [2:0] d_at [CTX];   // {d >= 1, d >= 0, d >= -1}
+    logic [2:0] g_at [CTX];   // {g >= 2, g >= 1, g >= 0}
+    logic [1:0] g_lo [CTX];   // {g = 1, g = 0} modulo DEPTH: c_gidx + 1, c_gidx at the ring address being written
+    logic [1:0] sr_at;        // {sr >= 1, sr >= 0}
+    logic       sr_lo;        // st_base at the ring address being written
+    logic [6:0] e_at_n [CTX], d_at_n [CTX], g_at_n [CTX];   // the next cycle's, the candidate not taken
+    logic [2:0] g_lo_n [CTX];                                // {g = 2, 1, 0} modulo DEPTH, likewise
+    logic [6:0] sr_at_n;
+    logic       sr_lo_n;
+    always_comb begin
+        automatic logic [GI_W-1:0] wr_cnt_n  = wr_cnt + GI_W'(wr_step);
+        automatic logic [GI_W-1:0] st_base_n = start_pass && st_lastg ? st_base + GI_W'(nm) : st_base;
+        automatic logic signed [GW-1:0] sr  = $signed({1'b0, wr_cnt_n}) - $signed({1'b0, st_base_n});
+        for (int k = 0; k < CTX; k++) begin
+            automatic logic [CW-1:0] p = CW'(k - 1);
+            automatic logic [31:0] slot_k = start_pass && st_ctx == CW'(k) ? '0 : c_slot[k];
+            automatic logic [31:0] slot_p = start_pass && st_ctx == p ? '0 : c_slot[p];
+            automatic logic [GI_W-1:0] gidx_k = start_pass && st_ctx == CW'(k) ? st_base : c_gidx[k];
+            automatic logic signed [DW-1:0] e = $signed(DW'(slot_k)) - $signed(DW'(lag));
+            automatic logic signed [DW-1:0] d = $signed(DW'(slot_p)) - $signed(DW'(slot_k)) - $signed(DW'(lag));
+            automatic logic signed [GW-1:0] g = $signed({1'b0, wr_cnt_n}) - $signed({1'b0, gidx_k});
+            e_at_n[k] = at_least(GW'(e));
+            d_at_n[k] = at_least(GW'(d));
+            g_at_n[k] = at_least(g);
+            g_lo_n[k] = {g[AW-1:0] == AW'(2), g[AW-1:0] == AW'(1), g[AW-1:0] == '0};
+        end
+        sr_at_n = at_least(sr);
+        sr_lo_n = sr[AW-1:0] == '0;
+    end
+    always_ff @(posedge clk) begin
+        for (int k = 0; k < CTX; k++) begin
+            automatic logic take_k = take && sel == CW'(k);         // k's slot and record one on: e + 1, d - 1, g - 1
+            automatic logic take_p = take && sel == CW'(k - 1);     // the slot before's one on: d + 1
+            e_at[k] <= take_k ? e_at_n[k][2:1] : e_at_n[k][3:2];
+            d_at[k] <= take_p ? d_at_n[k][3:1] : take_k ? d_at_n[k][5:3] : d_at_n[k][4:2];
+            g_at[k] <= take_k ? g_at_n[k][6:4] : g_at_n[k][5:3];
+            g_lo[k] <= take_k ? g_lo_n[k][2:1] : g_lo_n[k][1:0];
+        end
+        if (rst || init) begin   // wr_cnt = st_base = 0
+            sr_at <= 2'b01;
+            sr_lo <= 1'b1;
+        end else begin
+            sr_at <= sr_at_n[4:3];
+            sr_lo <= sr_lo_n;
+        end
+    end
+
+    // the next cycle's state, taken (index 1) or not (0): a context k started now (slot 0, record st_base), taken
+    // now (its slot and record one on) or neither; the context p before it likewise; a record written now (wr_cnt
+    // one on)
+    // the oldest pass is done: jlo moves on (jlo_open: a pass started and not done, jlo != st_pass, a register
+    // evaluated a cycle ahead like start_pass; the choice reads only the context bits of jlo's next)
+    logic            jlo_open;
+    wire             jlo_step = jlo_open && !c_active[jlo_ctx];
     wire [PASS_W:0]  jlo_next = jlo + (PASS_W+1)'(jlo_step);
+    wire [CW-1:0]    jlo_ctx_next = jlo_ctx + CW'(jlo_step);
     wire start_pass_next = st_pass_next < (PASS_W+1)'(passes) && st_pass_next - jlo_next < (PASS_W+1)'(CTX) && nm != 0
                            && (!st_lastg_next || jlo_next >= st_pass_next - (PASS_W+1)'(st_k_next));
     logic [CTX-1:0]  ahead_next [2], in_ring_next [2], active_next [2], skip_next [2], elig_next [2];
     choice_t         choice_next [2];
     logic [AW-1:0]   addr_next [2];
     always_comb begin
-        automatic logic signed [GW-1:0] st_room = $signed({1'b0, wr_cnt}) - $signed({1'b0, st_base});
         for (int o = 0; o < 2; o++) begin
             for (int k = 0; k < CTX; k++) begin
                 automatic logic [CW-1:0] p = CW'(k - 1);
                 automatic logic take_k = o == 1 && sel == CW'(k);
                 automatic logic take_p = o == 1 && sel == p;
-                automatic logic signed [DW-1:0] d = $signed(DW'(c_slot[p])) - $signed(DW'(c_slot[k]))
-                                                     - $signed(DW'(lag));
-                automatic logic signed [DW-1:0] e = $signed(DW'(c_slot[p])) - $signed(DW'(lag));
-                automatic logic signed [GW-1:0] g = $signed({1'b0, wr_cnt}) - $signed({1'b0, c_gidx[k]});
                 // c_slot[p] + take_p >= c_slot[k] + take_k + lag, c_gidx[k] + take_k < wr_cnt + wr_step
                 if (start_pass && st_ctx == CW'(k)) begin
-                    ahead_next[o][k]   = take_p ? e >= -1 : e >= 0;
-                    in_ring_next[o][k] = wr_step ? st_room >= 0 : st_room > 0;
+                    ahead_next[o][k]   = take_p ? e_at[p][0] : e_at[p][1];
+                    in_ring_next[o][k] = wr_step ? sr_at[0] : sr_at[1];
                 end else begin
                     if (start_pass && st_ctx == p) ahead_next[o][k] = 1'b0;   // slot 0 is never lag >= 1 ahead
-                    else if (take_p)               ahead_next[o][k] = d >= -1;
-                    else if (take_k)               ahead_next[o][k] = d >= 1;
-                    else                           ahead_next[o][k] = d >= 0;
-                    if (take_k) in_ring_next[o][k] = wr_step ? g > 0 : g > 1;
-                    else        in_ring_next[o][k] = wr_step ? g >= 0 : g > 0;
+                    else if (take_p)               ahead_next[o][k] = d_at[k][0];
+                    else if (take_k)               ahead_next[o][k] = d_at[k][2];
+                    else                           ahead_next[o][k] = d_at[k][1];
+                    if (take_k) in_ring_next[o][k] = wr_step ? g_at[k][1] : g_at[k][2];
+                    else        in_ring_next[o][k] = wr_step ? g_at[k][0] : g_at[k][1];
                 end
                 // (a start and a finish never hit the same context: st_pass - jlo < CTX)
                 active_next[o][k] = (start_pass && st_ctx == CW'(k)) || (c_active[k] && !(take_k && step_last));
@@ -265,13 +328,19 @@ module pgs_window #(
                 // (an active context holds a pass from jlo on, pass j in context j mod CTX: it holds jlo when it is
                 // jlo's context)
                 elig_next[o][k] = active_next[o][k] && in_ring_next[o][k]
-                                  && (CW'(k) == jlo_next[CW-1:0] || !active_next[o][p] || ahead_next[o][k]);
+                                  && (CW'(k) == jlo_ctx_next || !active_next[o][p] || ahead_next[o][k]);
             end
-            choice_next[o] = choose(elig_next[o], skip_next[o], jlo_next[CW-1:0]);
-            if (start_pass && st_ctx == choice_next[o].sel) addr_next[o] = st_base[AW-1:0];
-            else if (o == 1 && sel == choice_next[o].sel)  addr_next[o] = c_gidx[sel][AW-1:0] + 1'b1;
-            else                                          addr_next[o] = c_gidx[choice_next[o].sel][AW-1:0];
-            next_written[o] = addr_next[o] == wr_cnt[AW-1:0];
+            choice_next[o] = choose(elig_next[o], skip_next[o], jlo_ctx_next);
+            if (start_pass && st_ctx == choice_next[o].sel) begin
+                addr_next[o]    = st_base[AW-1:0];
+                next_written[o] = sr_lo;
+            end else if (o == 1 && sel == choice_next[o].sel) begin
+                addr_next[o]    = c_gidx[sel][AW-1:0] + 1'b1;
+                next_written[o] = g_lo[sel][1];
+            end else begin
+                addr_next[o]    = c_gidx[choice_next[o].sel][AW-1:0];
+                next_written[o] = g_lo[choice_next[o].sel][0];
+            end
         end
     end
     assign next_addr = take ? addr_next[1] : addr_next[0];
@@ -281,6 +350,8 @@ module pgs_window #(
         if (rst)       start_pass <= 1'b0;
         else if (init) start_pass <= first_start;
         else           start_pass <= start_pass_next;
+        if (rst || init) jlo_open <= 1'b0;   // jlo = st_pass = 0
+        else             jlo_open <= jlo_next != st_pass_next;
     end
 
     always_ff @(posedge clk) begin
@@ -344,8 +415,9 @@ module pgs_window #(
         end
     end
 
-    // Not needed: the assembler's tag and TLAST of a record (the fetch counters track the slots).
-    wire unused_win = ^{a_unused_tag, a_unused_last};
+    // Not needed: the assembler's tag and TLAST of a record (the fetch counters track the slots); the comparisons of
+    // `sr` the take does not move.
+    wire unused_win = ^{a_unused_tag, a_unused_last, sr_at_n[6:5], sr_at_n[2:0]};
 endmodule
 
 `default_nettype wire
