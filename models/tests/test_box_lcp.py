@@ -12,7 +12,8 @@ import pytest
 import scipy.sparse as sp
 
 from models.exact.box_lcp import BoxProblem, gauss_seidel, newton, solve_box
-from models.exact.box_lemke import box_lemke
+from models.exact import box_lcp
+from models.exact.box_lemke import PivotResult, box_lemke
 from models.exact.assembly import ExactReferenceError, Mass, block_mass
 from models.exact.damped_friction import certified_unique, damped_friction_phase
 
@@ -194,3 +195,47 @@ def test_contact_lcp_of_a_singular_matrix_is_solved_by_regularised_pivoting() ->
     assert np.all(e >= -1e-12) and abs(x @ e) <= 1e-12
     piv = box_lemke(H + 1e-12 * np.eye(n), -g, np.zeros(n), np.full(n, np.inf), None, 100)
     assert piv.solved and prob.worst(piv.x) <= 1e-9
+
+
+def _singular_contact_problem() -> BoxProblem:
+    """The contact phase's LCP of the test above: symmetric positive semidefinite, two coincident rows."""
+    G = np.array([[1.0, 0.2, 0.0], [1.0, 0.2, 0.0], [0.0, 1.0, 0.5], [0.3, 0.0, 1.0]])
+    H = G @ G.T
+    g = np.array([-1.0, -1.0, 0.4, -0.2])
+    return BoxProblem(sp.csr_matrix(H), -g, np.diag(H).copy(), np.zeros(4), np.full(4, np.inf))
+
+
+@pytest.mark.parametrize("method", [4, 5])
+def test_the_last_resorts_certify_a_singular_component_when_every_method_before_them_stops_short(
+        method: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The proximal point (method 4) and MPRGP (5, symmetric components) are reached only where Gauss-Seidel, Newton
+    and pivoting stop short, which on real worlds depends on the machine's rounding (a near-singular component that
+    one machine's Newton certifies, another's does not). Here those methods are made to stop short: Gauss-Seidel
+    leaves the start, the component's first Newton and every pivoting fail (the Newton steps inside the last resorts
+    run), and for MPRGP the proximal point fails too. The component is then certified by the method under test."""
+    prob = _singular_contact_problem()
+    real_newton, calls = box_lcp.newton, []
+
+    def newton_failing_first(p: BoxProblem, x: np.ndarray, target: float = box_lcp.TARGET):
+        calls.append(1)
+        return (x, np.inf, 0) if len(calls) == 1 else real_newton(p, x, target)
+
+    monkeypatch.setattr(box_lcp, "gauss_seidel", lambda p, x, deadline=np.inf, target=0.0: (x.copy(), 0))
+    monkeypatch.setattr(box_lcp, "newton", newton_failing_first)
+    monkeypatch.setattr(box_lcp, "box_lemke", lambda A, b, lo, hi, guess, max_pivots, deadline=np.inf:
+                        PivotResult(np.zeros_like(b), 0, False, "made to fail"))
+    if method == 5:
+        monkeypatch.setattr(box_lcp, "proximal_point", lambda p, x, rho, target=0.0, deadline=np.inf: (x, np.inf, 0))
+    x, res, out = solve_box(prob, np.zeros(4), accept=1e-12, target=1e-14)
+    assert out.methods == [method] and not out.failures
+    assert res <= 1e-12 and prob.worst(x) <= 1e-12 and np.all(x >= 0)
+
+
+def test_the_last_resorts_alone_reach_the_singular_components_solution() -> None:
+    """Called directly from zero impulses: the proximal point at each of its regularisations and MPRGP."""
+    prob = _singular_contact_problem()
+    for rho in box_lcp.PROXIMAL_REGULARIZATIONS:
+        _, res, _ = box_lcp.proximal_point(prob, np.zeros(4), rho, 1e-14)
+        assert res <= 1e-12, rho
+    _, res, _ = box_lcp.mprgp_point(prob, np.zeros(4), 1e-14)
+    assert res <= 1e-12

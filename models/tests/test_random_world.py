@@ -109,13 +109,15 @@ def test_exact_reference_on_random_worlds(tmp_path: Path) -> None:
                           "models/tests/test_random_world.py -k random_worlds)" if failures else "")
 
 
-@pytest.mark.parametrize("seed, method", [(114854854, 4), (548183768, 5)])
-def test_a_near_singular_contact_component_is_certified(seed: int, method: int, tmp_path: Path) -> None:
-    """Two worlds that CI's seeds drew, each with a contact component of near-null modes where Gauss-Seidel, Newton
-    and pivoting stop short (models/exact/box_lcp.py). Seed 114854854: 418 rows of rank 176, eigenvalues 2.6e-7 and
-    1.7e-6 beside 1.9e3, stopped at 6.0e-10 m/s (one contact pass moved 1.0e-8); the proximal point certifies it.
-    Seed 548183768: 502 rows of rank 195, stopped at 2.8e-8 m/s (the proximal point's Newton too; one pass moved
-    2.2e-7); MPRGP certifies it."""
+@pytest.mark.parametrize("seed", [114854854, 548183768])
+def test_a_near_singular_contact_component_is_certified(seed: int, tmp_path: Path) -> None:
+    """Two worlds that CI's seeds drew, each with a contact component of near-null modes where Gauss-Seidel stops
+    short (models/exact/box_lcp.py). Seed 114854854: 418 rows of rank 176, eigenvalues 2.6e-7 and 1.7e-6 beside
+    1.9e3; seed 548183768: 502 rows of rank 195. Which later method certifies such a component depends on the
+    machine's rounding: where they were found, Newton and pivoting stopped short too (6.0e-10 and 2.8e-8 m/s) and the
+    proximal point and MPRGP certified them; on a 2026-12-07 machine Newton (and for the second, pivoting) did. The
+    world certifies, and some method after Gauss-Seidel was needed (the last resorts themselves:
+    models/tests/test_box_lcp.py, with the methods before them made to stop short)."""
     ok, details = _certified(seed, tmp_path)
     assert ok
-    assert details[f"{SHARPEN_KEY} by {BOX_METHODS[method]}"] == 1
+    assert sum(details[f"{SHARPEN_KEY} by {name}"] for name in BOX_METHODS[1:]) >= 1
