@@ -179,15 +179,21 @@ def test_damped_friction_phase_that_cannot_certify_names_every_method(monkeypatc
         damped_friction_phase(J, c, N, mass, u1, L, {}, "test body")
 
 
-def test_contact_lcp_of_a_singular_matrix_is_solved_by_regularised_pivoting() -> None:
-    """The contact phase's LCP (x >= 0, symmetric positive semidefinite and singular: two coincident rows, as four
-    coplanar points give): Gauss-Seidel, Newton and regularised pivoting reach a solution whose velocities-side
-    residual is at rounding."""
+def _singular_contact_problem() -> BoxProblem:
+    """A contact phase's LCP (x >= 0, b = -g): symmetric positive semidefinite and singular, two coincident rows, as
+    four coplanar points give."""
     G = np.array([[1.0, 0.2, 0.0], [1.0, 0.2, 0.0], [0.0, 1.0, 0.5], [0.3, 0.0, 1.0]])
     H = G @ G.T
     g = np.array([-1.0, -1.0, 0.4, -0.2])
+    return BoxProblem(sp.csr_matrix(H), -g, np.diag(H).copy(), np.zeros(4), np.full(4, np.inf))
+
+
+def test_contact_lcp_of_a_singular_matrix_is_solved_by_regularised_pivoting() -> None:
+    """The contact phase's LCP of `_singular_contact_problem`: Gauss-Seidel, Newton and regularised pivoting reach a
+    solution whose velocities-side residual is at rounding."""
+    prob = _singular_contact_problem()
+    H, g = prob.A.toarray(), -prob.b
     n = g.shape[0]
-    prob = BoxProblem(sp.csr_matrix(H), -g, np.diag(H).copy(), np.zeros(n), np.full(n, np.inf))
     assert np.linalg.matrix_rank(H) < n
     x, res, _ = solve_box(prob, np.zeros(n), accept=1e-12, target=1e-14)
     assert res <= 1e-12 and np.all(x >= 0)
@@ -195,14 +201,6 @@ def test_contact_lcp_of_a_singular_matrix_is_solved_by_regularised_pivoting() ->
     assert np.all(e >= -1e-12) and abs(x @ e) <= 1e-12
     piv = box_lemke(H + 1e-12 * np.eye(n), -g, np.zeros(n), np.full(n, np.inf), None, 100)
     assert piv.solved and prob.worst(piv.x) <= 1e-9
-
-
-def _singular_contact_problem() -> BoxProblem:
-    """The contact phase's LCP of the test above: symmetric positive semidefinite, two coincident rows."""
-    G = np.array([[1.0, 0.2, 0.0], [1.0, 0.2, 0.0], [0.0, 1.0, 0.5], [0.3, 0.0, 1.0]])
-    H = G @ G.T
-    g = np.array([-1.0, -1.0, 0.4, -0.2])
-    return BoxProblem(sp.csr_matrix(H), -g, np.diag(H).copy(), np.zeros(4), np.full(4, np.inf))
 
 
 @pytest.mark.parametrize("method", [4, 5])
