@@ -17,10 +17,10 @@ import numpy as np
 
 from models.scenes.contact_capture import query_plan, read_manifolds
 from models.scenes.specs import DEFAULT_CAPTURE_STEP
+from models.scenes.specs import THESIS_FRAME_BODIES as THESIS_BODIES
+from models.scenes.specs import THESIS_FRAME_MANIFOLDS as THESIS_MANIFOLDS
 from models.scenes.world import build_world
 
-THESIS_BODIES = 38881
-THESIS_MANIFOLDS = 147485  # the per-body capture of the thesis frame (shared research note)
 
 
 def _same(a: object, b: object) -> bool:

@@ -32,9 +32,11 @@ from models.kernel.body_banks import RECORDS_BANKS, WINDOW_BANKS
 from models.kernel.delay_lines import BLOCK_MIN_DEPTH
 from models.formats.number_format import FP16, FP32, NumberFormat
 from sim.fit import resource_model as rm
+from models.scenes.specs import THESIS_FRAME_BODIES as THESIS_BODIES
+from models.scenes.specs import THESIS_FRAME_MANIFOLDS as THESIS_MANIFOLDS
 from models.timing import platforms
 
-THESIS_BODIES, THESIS_MANIFOLDS, README_RING = 38_881, 147_485, 16_384
+README_RING = 16_384
 
 
 @dataclass(frozen=True)
