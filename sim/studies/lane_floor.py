@@ -2,8 +2,8 @@
 levers the resource model knows applied one after another (``python -m sim.studies.lane_floor``).
 
 Below about one cycle per manifold-pass a step needs more than one datapath: fp32 at 0.8 cycles per manifold-pass
-takes two lanes (the cycle model: 0.7832 with a ring of 8,192 records, 0.7854 with 4,096), fp16 at 0.45 four or
-more (0.4723 with four). This study takes the headline build (the window kernel, impulses in the records, banked body
+takes two lanes (the cycle model: 0.7832 with a ring of 8,192 records, 0.7854 with 4,096), fp16 at 0.45 four with
+a ring of 4,096 (0.4492; 0.4723 with 8,192). This study takes the headline build (the window kernel, impulses in the records, banked body
 velocities, 256-bit body streams, DSP48E2 adders, the scene's 1-word inverse inertia: the ``fitting-fp32`` and
 ``fitting-fp16`` commands of ``docs/claims.toml``) with those lanes and applies, in turn:
 
