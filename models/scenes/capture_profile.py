@@ -22,7 +22,6 @@ from models.scenes.specs import THESIS_FRAME_MANIFOLDS as THESIS_MANIFOLDS
 from models.scenes.world import build_world
 
 
-
 def _same(a: object, b: object) -> bool:
     return all(getattr(a, k).tobytes() == getattr(b, k).tobytes() for k in a.__dataclass_fields__)  # type: ignore
 

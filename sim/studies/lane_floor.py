@@ -3,9 +3,9 @@ levers the resource model knows applied one after another (``python -m sim.studi
 
 Below about one cycle per manifold-pass a step needs more than one datapath: fp32 at 0.8 cycles per manifold-pass
 takes two lanes (the cycle model: 0.7832 with a ring of 8,192 records, 0.7854 with 4,096), fp16 at 0.45 four with
-a ring of 4,096 (0.4492; 0.4723 with 8,192). This study takes the headline build (the window kernel, impulses in the records, banked body
-velocities, 256-bit body streams, DSP48E2 adders, the scene's 1-word inverse inertia: the ``fitting-fp32`` and
-``fitting-fp16`` commands of ``docs/claims.toml``) with those lanes and applies, in turn:
+a ring of 4,096 (0.4492; 0.4723 with 8,192). This study takes the headline build (the window kernel, impulses in the
+records, banked body velocities, 256-bit body streams, DSP48E2 adders, the scene's 1-word inverse inertia: the
+``fitting-fp32`` and ``fitting-fp16`` commands of ``docs/claims.toml``) with those lanes and applies, in turn:
 
 1. **a shallower ring** (``RECORD_WINDOW``; built: the cycle model measures what it costs, ``make sim MODE=model``);
 2. **the poses off chip**: only 1/m and the inverse inertia stay on chip through the solve, the positions and
@@ -80,7 +80,7 @@ def _within_bram_target(cfg: rm.KernelConfig, platform: platforms.Platform, data
     return eb.band_verdict(cfg, platform, data).shares["BRAM36"].yosys <= DESIGN_TARGET["BRAM36"]
 
 
-def deepest_useful_delay(cfg: rm.KernelConfig, platform: platforms.Platform, data: dict[str, Any]) -> int:
+def shallowest_delay_within_target(cfg: rm.KernelConfig, platform: platforms.Platform, data: dict[str, Any]) -> int:
     """The shallowest of :data:`DELAY_DEPTHS` (and no deeper than ``cfg``'s own threshold, where it has one) from
     which the delay lines can go to block RAM with block RAM still within the design target; ``cfg``'s own threshold
     where none can."""
@@ -112,7 +112,7 @@ def steps(base: rm.KernelConfig, platform: platforms.Platform, ring: int,
         cfg = add(f"ring of {ring:,} records (RECORD_WINDOW={ring})", dataclasses.replace(cfg, window=ring))
     cfg = add("the poses off chip: 1/m and the inverse inertia on chip (modelled, not built)",
               dataclasses.replace(cfg, body_words="solve"))
-    depth = deepest_useful_delay(cfg, platform, data)
+    depth = shallowest_delay_within_target(cfg, platform, data)
     if depth != cfg.delay_block_min_depth:
         add(f"delay lines {_delay_text(depth)} (the shallowest block RAM allows)",
             dataclasses.replace(cfg, delay_block_min_depth=depth))

@@ -31,10 +31,10 @@ from models.sizing import onchip_budget as ob
 from models.kernel.body_banks import RECORDS_BANKS, WINDOW_BANKS
 from models.kernel.delay_lines import BLOCK_MIN_DEPTH
 from models.formats.number_format import FP16, FP32, NumberFormat
-from sim.fit import resource_model as rm
 from models.scenes.specs import THESIS_FRAME_BODIES as THESIS_BODIES
 from models.scenes.specs import THESIS_FRAME_MANIFOLDS as THESIS_MANIFOLDS
 from models.timing import platforms
+from sim.fit import resource_model as rm
 
 README_RING = 16_384
 

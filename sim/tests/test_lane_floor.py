@@ -53,8 +53,8 @@ def test_the_shallowest_delay_depth_within_the_block_ram_target() -> None:
     build's own threshold stays."""
     base = lf.headline_config(FP32, 2)
     data = rm.figures()
-    assert lf.deepest_useful_delay(base, platforms.get_platform("u280"), data) == lf.DELAY_DEPTHS[-1]
-    assert lf.deepest_useful_delay(base, ZCU102, data) == base.delay_block_min_depth
+    assert lf.shallowest_delay_within_target(base, platforms.get_platform("u280"), data) == lf.DELAY_DEPTHS[-1]
+    assert lf.shallowest_delay_within_target(base, ZCU102, data) == base.delay_block_min_depth
 
 
 def test_operators_alone() -> None:
