@@ -286,9 +286,6 @@ module pgs_window #(
         end
     end
 
-    // the next cycle's state, taken (index 1) or not (0): a context k started now (slot 0, record st_base), taken
-    // now (its slot and record one on) or neither; the context p before it likewise; a record written now (wr_cnt
-    // one on)
     // the oldest pass is done: jlo moves on (jlo_open: a pass started and not done, jlo != st_pass, a register
     // evaluated a cycle ahead like start_pass; the choice reads only the context bits of jlo's next)
     logic            jlo_open;
@@ -297,6 +294,9 @@ module pgs_window #(
     wire [CW-1:0]    jlo_ctx_next = jlo_ctx + CW'(jlo_step);
     wire start_pass_next = st_pass_next < (PASS_W+1)'(passes) && st_pass_next - jlo_next < (PASS_W+1)'(CTX) && nm != 0
                            && (!st_lastg_next || jlo_next >= st_pass_next - (PASS_W+1)'(st_k_next));
+    // the next cycle's state, taken (index 1) or not (0): a context k started now (slot 0, record st_base), taken
+    // now (its slot and record one on) or neither; the context p before it likewise; a record written now (wr_cnt
+    // one on)
     logic [CTX-1:0]  ahead_next [2], in_ring_next [2], active_next [2], skip_next [2], elig_next [2];
     choice_t         choice_next [2];
     logic [AW-1:0]   addr_next [2];
